@@ -1,0 +1,134 @@
+"""Log-space maths: log-sum-exp and Gaussian log-densities via Cholesky.
+
+Probabilities that can underflow travel as logarithms.  The ``*_kernel``
+functions are numba kernels for use inside other kernels; they assume valid,
+contiguous float64 input.
+"""
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from .validation import as_array, as_covariance, as_vector
+
+__all__ = [
+    "logsumexp",
+    "normalize_log_weights",
+    "gaussian_logpdf",
+    "logsumexp_kernel",
+    "normalize_log_weights_kernel",
+    "cholesky_logpdf_kernel",
+    "LOG_2PI",
+]
+
+LOG_2PI = math.log(2.0 * math.pi)
+
+
+@nb.njit(cache=True, fastmath=False)
+def logsumexp_kernel(a):
+    """log(sum(exp(a))) of a 1-D array; -inf for an empty or all -inf array."""
+    n = a.shape[0]
+    if n == 0:
+        return -np.inf
+    amax = -np.inf
+    for i in range(n):
+        if a[i] > amax:
+            amax = a[i]
+    if amax == -np.inf:
+        return -np.inf
+    if amax == np.inf:
+        return np.inf
+    s = 0.0
+    for i in range(n):
+        s += math.exp(a[i] - amax)
+    return amax + math.log(s)
+
+
+@nb.njit(cache=True)
+def normalize_log_weights_kernel(logw):
+    """Normalise log-weights in place; returns the log of the total mass."""
+    total = logsumexp_kernel(logw)
+    if total == -np.inf:
+        return total
+    for i in range(logw.shape[0]):
+        logw[i] -= total
+    return total
+
+
+def logsumexp(a, axis=None):
+    """Stable ``log(sum(exp(a)))``; ``-inf`` entries are allowed (zero mass).
+
+    With ``axis=None`` the whole array is reduced to a float; otherwise the
+    reduction runs along ``axis`` like :func:`scipy.special.logsumexp`.
+    """
+    arr = as_array(a, "a", finite=False)
+    if np.any(np.isnan(arr)):
+        raise ValueError("a must not contain NaN")
+    if axis is None:
+        return float(logsumexp_kernel(arr.ravel()))
+    moved = np.moveaxis(arr, axis, -1)
+    flat = np.ascontiguousarray(moved.reshape(-1, moved.shape[-1]))
+    out = np.empty(flat.shape[0])
+    for i in range(flat.shape[0]):
+        out[i] = logsumexp_kernel(flat[i])
+    return out.reshape(moved.shape[:-1])
+
+
+def normalize_log_weights(logw):
+    """Return ``(normalised log-weights, log total)`` of a 1-D array.
+
+    Raises ``ValueError`` when every weight is zero (all ``-inf``): there is
+    no distribution to normalise, and silently returning NaN would hide it.
+    """
+    w = as_array(logw, "logw", ndim=1, finite=False).copy()
+    if np.any(np.isnan(w)) or np.any(w == np.inf):
+        raise ValueError("logw must not contain NaN or +inf")
+    total = normalize_log_weights_kernel(w)
+    if total == -np.inf:
+        raise ValueError("logw has zero total weight (all entries are -inf)")
+    return w, float(total)
+
+
+@nb.njit(cache=True)
+def cholesky_logpdf_kernel(r, L):
+    """log N(r; 0, L L^T) for a residual ``r`` and lower Cholesky factor ``L``."""
+    n = r.shape[0]
+    # forward substitution L y = r
+    y = np.empty(n)
+    logdet_half = 0.0
+    for i in range(n):
+        s = r[i]
+        for j in range(i):
+            s -= L[i, j] * y[j]
+        y[i] = s / L[i, i]
+        logdet_half += math.log(L[i, i])
+    maha = 0.0
+    for i in range(n):
+        maha += y[i] * y[i]
+    return -0.5 * (n * 1.8378770664093453 + maha) - logdet_half
+
+
+def gaussian_logpdf(x, mean, cov):
+    """log N(x; mean, cov) using a Cholesky factorisation.
+
+    ``x`` may be one point ``(n,)`` or a batch ``(k, n)`` (returns ``(k,)``).
+    ``cov`` must be symmetric positive definite.
+    """
+    mean = as_vector(mean, "mean")
+    n = mean.shape[0]
+    cov = as_covariance(cov, "cov", n)
+    xa = as_array(x, "x", ndim=(1, 2))
+    single = xa.ndim == 1
+    xa = xa.reshape(-1, n) if xa.size or not single else xa.reshape(0, n)
+    if xa.shape[1] != n:
+        raise ValueError(f"x must have last dimension {n}, got shape {np.shape(x)}")
+    try:
+        L = np.linalg.cholesky(cov)
+    except np.linalg.LinAlgError:
+        raise ValueError("cov must be positive definite") from None
+    out = np.empty(xa.shape[0])
+    for i in range(xa.shape[0]):
+        out[i] = cholesky_logpdf_kernel(xa[i] - mean, L)
+    return float(out[0]) if single else out

@@ -1,0 +1,229 @@
+"""Input validation shared by every public trackcore function.
+
+Public functions validate their inputs once with these helpers and then hand
+contiguous float64 arrays to numba kernels that assume valid input.  Every
+error names the offending argument and says what was expected.
+"""
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+__all__ = [
+    "as_array",
+    "as_vector",
+    "as_matrix",
+    "as_square_matrix",
+    "as_covariance",
+    "as_measurements",
+    "as_scalar",
+    "as_positive",
+    "as_nonnegative",
+    "as_probability",
+    "as_probabilities",
+    "as_count",
+    "as_int",
+    "as_rng",
+    "as_bool_matrix",
+]
+
+
+def _describe(x) -> str:
+    return type(x).__name__
+
+
+def as_array(x, name: str, *, ndim=None, shape=None, finite: bool = True,
+             allow_empty: bool = True) -> np.ndarray:
+    """Return ``x`` as a C-contiguous float64 array after checking it.
+
+    ``ndim`` is an int or a tuple of allowed ints; ``shape`` is a tuple whose
+    entries are ints or ``None`` (any size).  Raises ``TypeError`` for
+    non-numeric input (strings, objects, complex, booleans are accepted as 0/1
+    only when they come as numeric arrays) and ``ValueError`` for a wrong shape
+    or non-finite entries.
+    """
+    if isinstance(x, (str, bytes)) or x is None:
+        raise TypeError(f"{name} must be a numeric array, got {_describe(x)}")
+    try:
+        arr = np.asarray(x)
+    except Exception as exc:  # pragma: no cover - ragged input etc.
+        raise TypeError(f"{name} must be a numeric array ({exc})") from None
+    if arr.dtype == object or not (np.issubdtype(arr.dtype, np.number) or arr.dtype == np.bool_):
+        raise TypeError(f"{name} must be a numeric array, got dtype {arr.dtype}")
+    if np.issubdtype(arr.dtype, np.complexfloating):
+        raise TypeError(f"{name} must be real, got complex dtype {arr.dtype}")
+    arr = np.ascontiguousarray(arr, dtype=np.float64)
+    if ndim is not None:
+        allowed = (ndim,) if isinstance(ndim, int) else tuple(ndim)
+        if arr.ndim not in allowed:
+            raise ValueError(
+                f"{name} must have {' or '.join(map(str, allowed))} dimension(s), "
+                f"got shape {arr.shape}")
+    if shape is not None:
+        if arr.ndim != len(shape) or any(
+                s is not None and s != a for s, a in zip(shape, arr.shape)):
+            want = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ")"
+            raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
+    if not allow_empty and arr.size == 0:
+        raise ValueError(f"{name} must not be empty")
+    if finite and arr.size and not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must contain only finite values (found NaN or inf)")
+    return arr
+
+
+def as_vector(x, name: str, n: int | None = None, *, finite: bool = True) -> np.ndarray:
+    """A 1-D float64 array, optionally of length ``n``."""
+    return as_array(x, name, shape=(n,), finite=finite)
+
+
+def as_matrix(x, name: str, shape=(None, None), *, finite: bool = True) -> np.ndarray:
+    """A 2-D float64 array of the given shape (``None`` = any size)."""
+    return as_array(x, name, shape=tuple(shape), finite=finite)
+
+
+def as_square_matrix(x, name: str, n: int | None = None) -> np.ndarray:
+    arr = as_array(x, name, ndim=2)
+    if arr.shape[0] != arr.shape[1] or (n is not None and arr.shape[0] != n):
+        want = f"({n}, {n})" if n is not None else "square"
+        raise ValueError(f"{name} must be {want}, got shape {arr.shape}")
+    return arr
+
+
+def as_covariance(x, name: str, n: int | None = None, *, strict: bool = False,
+                  rtol: float = 1e-9) -> np.ndarray:
+    """A symmetric positive semi-definite (``strict``: definite) matrix.
+
+    Symmetry is checked to ``rtol`` relative to the largest entry; the returned
+    matrix is exactly symmetrised.  Semi-definiteness allows eigenvalues down
+    to ``-rtol * max|eig|`` to absorb rounding.
+    """
+    arr = as_square_matrix(x, name, n)
+    if arr.size == 0:
+        return arr
+    scale = max(float(np.max(np.abs(arr))), 1e-300)
+    if np.max(np.abs(arr - arr.T)) > rtol * scale * 10:
+        raise ValueError(f"{name} must be symmetric")
+    arr = 0.5 * (arr + arr.T)
+    eig = np.linalg.eigvalsh(arr)
+    tol = rtol * max(float(np.max(np.abs(eig))), 1e-300)
+    if strict and eig[0] <= 0:
+        raise ValueError(f"{name} must be positive definite (smallest eigenvalue {eig[0]:.3g})")
+    if eig[0] < -tol:
+        raise ValueError(
+            f"{name} must be positive semi-definite (smallest eigenvalue {eig[0]:.3g})")
+    return np.ascontiguousarray(arr)
+
+
+def as_measurements(z, name: str, d: int | None = None) -> np.ndarray:
+    """A scan of measurements as an ``(m, d)`` array; ``m = 0`` is valid.
+
+    Accepts ``[]`` or an empty array for an empty scan (returned as shape
+    ``(0, d)`` when ``d`` is known) and a 1-D array of length ``d`` as one
+    measurement.
+    """
+    if isinstance(z, (list, tuple)) and len(z) == 0:
+        return np.zeros((0, d if d is not None else 0))
+    arr = as_array(z, name, ndim=(1, 2))
+    if arr.ndim == 1:
+        if arr.size == 0:
+            return np.zeros((0, d if d is not None else 0))
+        if d is None or arr.size == d:
+            arr = arr.reshape(1, -1)
+        elif d == 1:
+            arr = arr.reshape(-1, 1)
+        else:
+            raise ValueError(f"{name} must have shape (m, {d}), got {arr.shape}")
+    if arr.shape[0] == 0 and d is not None:
+        return np.zeros((0, d))
+    if d is not None and arr.shape[1] != d:
+        raise ValueError(f"{name} must have shape (m, {d}), got {arr.shape}")
+    return arr
+
+
+def as_scalar(x, name: str, *, finite: bool = True) -> float:
+    if isinstance(x, (bool, np.bool_)) or isinstance(x, (str, bytes)) or x is None:
+        raise TypeError(f"{name} must be a real number, got {_describe(x)}")
+    if isinstance(x, np.ndarray):
+        if x.size != 1:
+            raise ValueError(f"{name} must be a scalar, got shape {x.shape}")
+        x = x.reshape(-1)[0]
+    if not isinstance(x, numbers.Real):
+        raise TypeError(f"{name} must be a real number, got {_describe(x)}")
+    v = float(x)
+    if finite and not np.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {v}")
+    return v
+
+
+def as_positive(x, name: str) -> float:
+    v = as_scalar(x, name)
+    if v <= 0:
+        raise ValueError(f"{name} must be > 0, got {v}")
+    return v
+
+
+def as_nonnegative(x, name: str) -> float:
+    v = as_scalar(x, name)
+    if v < 0:
+        raise ValueError(f"{name} must be >= 0, got {v}")
+    return v
+
+
+def as_probability(p, name: str, *, open_low: bool = False, open_high: bool = False) -> float:
+    """A probability in [0, 1]; ``open_low``/``open_high`` exclude 0/1."""
+    v = as_scalar(p, name)
+    lo_ok = v > 0 if open_low else v >= 0
+    hi_ok = v < 1 if open_high else v <= 1
+    if not (lo_ok and hi_ok):
+        lo = "(0" if open_low else "[0"
+        hi = "1)" if open_high else "1]"
+        raise ValueError(f"{name} must be a probability in {lo}, {hi}, got {v}")
+    return v
+
+
+def as_probabilities(p, name: str, *, shape=None) -> np.ndarray:
+    arr = as_array(p, name, shape=shape)
+    if arr.size and (arr.min() < 0 or arr.max() > 1):
+        raise ValueError(f"{name} must contain probabilities in [0, 1]")
+    return arr
+
+
+def as_int(n, name: str, *, minimum: int | None = None) -> int:
+    if isinstance(n, (bool, np.bool_)) or not isinstance(n, (numbers.Integral,)):
+        if isinstance(n, float) and float(n).is_integer():
+            n = int(n)
+        else:
+            raise TypeError(f"{name} must be an integer, got {_describe(n)}")
+    n = int(n)
+    if minimum is not None and n < minimum:
+        raise ValueError(f"{name} must be >= {minimum}, got {n}")
+    return n
+
+
+def as_count(n, name: str) -> int:
+    """A non-negative integer count."""
+    return as_int(n, name, minimum=0)
+
+
+def as_rng(rng, name: str = "rng") -> np.random.Generator:
+    """Require an explicit ``numpy.random.Generator`` (no hidden global state)."""
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(
+            f"{name} must be a numpy.random.Generator (e.g. numpy.random.default_rng(seed)), "
+            f"got {_describe(rng)}")
+    return rng
+
+
+def as_bool_matrix(x, name: str, shape=(None, None)) -> np.ndarray:
+    arr = np.asarray(x)
+    if arr.dtype != np.bool_:
+        if arr.dtype == object or not np.issubdtype(arr.dtype, np.number):
+            raise TypeError(f"{name} must be a boolean array, got dtype {arr.dtype}")
+        if arr.size and not np.all((arr == 0) | (arr == 1)):
+            raise ValueError(f"{name} must contain only 0/1 or booleans")
+        arr = arr.astype(bool)
+    if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
+        want = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ")"
+        raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
+    return np.ascontiguousarray(arr)
