@@ -121,9 +121,9 @@ def gaussian_logpdf(x, mean, cov):
     cov = as_covariance(cov, "cov", n)
     xa = as_array(x, "x", ndim=(1, 2))
     single = xa.ndim == 1
-    xa = xa.reshape(-1, n) if xa.size or not single else xa.reshape(0, n)
-    if xa.shape[1] != n:
-        raise ValueError(f"x must have last dimension {n}, got shape {np.shape(x)}")
+    if xa.shape[-1] != n:
+        raise ValueError(f"x must have last dimension {n}, got shape {xa.shape}")
+    xa = xa.reshape(-1, n)
     try:
         L = np.linalg.cholesky(cov)
     except np.linalg.LinAlgError:
