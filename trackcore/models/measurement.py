@@ -1,0 +1,252 @@
+"""Measurement models: linear position, range-bearing, range-bearing-Doppler.
+
+The sensor sits at the origin unless a ``sensor`` position ``[sx, sy]`` is
+given.  Bearing is ``atan2(y, x)`` (counter-clockwise from +x), in
+``(-pi, pi]``.  Functions of a state accept one state ``(n,)`` or a batch
+``(N, n)``; batches go through numba kernels (particle filters call them on
+10^5 particles).  Jacobians are analytic and raise ``ValueError`` at zero
+range, where they are undefined.
+"""
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from ..core.validation import as_array, as_int, as_nonnegative, as_scalar, as_vector
+
+__all__ = [
+    "position_matrix",
+    "wrap_angle",
+    "wrap_angle_kernel",
+    "range_bearing",
+    "range_bearing_jacobian",
+    "range_bearing_kernel",
+    "range_bearing_doppler",
+    "range_bearing_doppler_jacobian",
+    "range_bearing_doppler_kernel",
+    "polar_to_cartesian",
+    "converted_measurement_covariance",
+]
+
+_TWO_PI = 2.0 * math.pi
+
+
+def position_matrix(dim=2, n=4):
+    """``H = [I_dim, 0]`` of shape ``(dim, n)``: observe the positions of a state."""
+    dim = as_int(dim, "dim", minimum=1)
+    n = as_int(n, "n", minimum=1)
+    if n < dim:
+        raise ValueError(f"n must be >= dim ({dim}), got {n}")
+    H = np.zeros((dim, n))
+    H[:, :dim] = np.eye(dim)
+    return H
+
+
+@nb.njit(cache=True)
+def wrap_angle_kernel(a):
+    """Wrap one angle (radians) to (-pi, pi]."""
+    return a - _TWO_PI * math.ceil((a - math.pi) / _TWO_PI)
+
+
+@nb.njit(cache=True)
+def _wrap_array_kernel(a, out):
+    flat_in = a.ravel()
+    flat_out = out.ravel()
+    for i in range(flat_in.shape[0]):
+        flat_out[i] = wrap_angle_kernel(flat_in[i])
+
+
+def wrap_angle(a):
+    """Wrap angles (radians, scalar or array) to ``(-pi, pi]``."""
+    if np.ndim(a) == 0 and not isinstance(a, np.ndarray):
+        return float(wrap_angle_kernel(as_scalar(a, "a")))
+    arr = as_array(a, "a")
+    out = np.empty_like(arr)
+    _wrap_array_kernel(arr, out)
+    return out
+
+
+def _states(x, name, min_n):
+    arr = as_array(x, name, ndim=(1, 2))
+    if arr.shape[-1] < min_n:
+        raise ValueError(f"{name} must have at least {min_n} components in its last "
+                         f"dimension, got shape {arr.shape}")
+    return arr
+
+
+def _sensor(sensor):
+    if sensor is None:
+        return np.zeros(2)
+    return as_vector(sensor, "sensor", 2)
+
+
+@nb.njit(cache=True)
+def range_bearing_kernel(X, sx, sy, out):
+    """Range and bearing of each row of ``X`` (N, n>=2) into ``out`` (N, 2)."""
+    for i in range(X.shape[0]):
+        dx = X[i, 0] - sx
+        dy = X[i, 1] - sy
+        out[i, 0] = math.sqrt(dx * dx + dy * dy)
+        out[i, 1] = math.atan2(dy, dx)
+
+
+def range_bearing(x, sensor=None):
+    """``h(x) = [r, atan2(y - sy, x - sx)]`` for a state ``[x, y, ...]`` or a batch.
+
+    Returns ``(2,)`` for one state, ``(N, 2)`` for ``(N, n)``.
+    """
+    X = _states(x, "x", 2)
+    s = _sensor(sensor)
+    single = X.ndim == 1
+    X2 = X.reshape(1, -1) if single else X
+    out = np.empty((X2.shape[0], 2))
+    range_bearing_kernel(X2, s[0], s[1], out)
+    return out[0] if single else out
+
+
+@nb.njit(cache=True)
+def _range_bearing_jacobian_kernel(X, sx, sy, out):
+    """Returns the index of the first zero-range state, or -1."""
+    for i in range(X.shape[0]):
+        dx = X[i, 0] - sx
+        dy = X[i, 1] - sy
+        r2 = dx * dx + dy * dy
+        if r2 == 0.0:
+            return i
+        r = math.sqrt(r2)
+        out[i, 0, 0] = dx / r
+        out[i, 0, 1] = dy / r
+        out[i, 1, 0] = -dy / r2
+        out[i, 1, 1] = dx / r2
+    return -1
+
+
+def range_bearing_jacobian(x, sensor=None):
+    """Jacobian of :func:`range_bearing`: ``(2, n)`` or ``(N, 2, n)``.
+
+    Rows: ``[x/r, y/r, 0...]`` and ``[-y/r^2, x/r^2, 0...]`` (relative to the
+    sensor).  Raises ``ValueError`` at zero range.
+    """
+    X = _states(x, "x", 2)
+    s = _sensor(sensor)
+    single = X.ndim == 1
+    X2 = X.reshape(1, -1) if single else X
+    out = np.zeros((X2.shape[0], 2, X2.shape[1]))
+    bad = _range_bearing_jacobian_kernel(X2, s[0], s[1], out)
+    if bad >= 0:
+        raise ValueError("x is at zero range from the sensor: the range-bearing Jacobian "
+                         f"is undefined (state index {bad})")
+    return out[0] if single else out
+
+
+@nb.njit(cache=True)
+def range_bearing_doppler_kernel(X, out):
+    """``[r, bearing, range rate]`` of each relative state row ``[x, y, vx, vy, ...]``.
+
+    Returns the index of the first zero-range row (range rate undefined), or -1.
+    """
+    for i in range(X.shape[0]):
+        x = X[i, 0]
+        y = X[i, 1]
+        r = math.sqrt(x * x + y * y)
+        if r == 0.0:
+            return i
+        out[i, 0] = r
+        out[i, 1] = math.atan2(y, x)
+        out[i, 2] = (x * X[i, 2] + y * X[i, 3]) / r
+    return -1
+
+
+def range_bearing_doppler(x_rel):
+    """``[r, atan2(y, x), (x vx + y vy)/r]`` of a relative state ``[x, y, vx, vy, ...]``.
+
+    ``x_rel`` is target minus sensor (position and velocity), one state
+    ``(n,)`` or a batch ``(N, n)``.  Raises ``ValueError`` at zero range, where
+    the range rate is undefined.
+    """
+    X = _states(x_rel, "x_rel", 4)
+    single = X.ndim == 1
+    X2 = X.reshape(1, -1) if single else X
+    out = np.empty((X2.shape[0], 3))
+    bad = range_bearing_doppler_kernel(X2, out)
+    if bad >= 0:
+        raise ValueError("x_rel has zero range: the range rate is undefined "
+                         f"(state index {bad})")
+    return out[0] if single else out
+
+
+@nb.njit(cache=True)
+def _range_bearing_doppler_jacobian_kernel(X, out):
+    for i in range(X.shape[0]):
+        x = X[i, 0]
+        y = X[i, 1]
+        vx = X[i, 2]
+        vy = X[i, 3]
+        r2 = x * x + y * y
+        if r2 == 0.0:
+            return i
+        r = math.sqrt(r2)
+        r3 = r2 * r
+        cross = vx * y - vy * x
+        out[i, 0, 0] = x / r
+        out[i, 0, 1] = y / r
+        out[i, 1, 0] = -y / r2
+        out[i, 1, 1] = x / r2
+        out[i, 2, 0] = y * cross / r3
+        out[i, 2, 1] = -x * cross / r3
+        out[i, 2, 2] = x / r
+        out[i, 2, 3] = y / r
+    return -1
+
+
+def range_bearing_doppler_jacobian(x_rel):
+    """Jacobian of :func:`range_bearing_doppler`: ``(3, n)`` or ``(N, 3, n)``.
+
+    Raises ``ValueError`` at zero range.
+    """
+    X = _states(x_rel, "x_rel", 4)
+    single = X.ndim == 1
+    X2 = X.reshape(1, -1) if single else X
+    out = np.zeros((X2.shape[0], 3, X2.shape[1]))
+    bad = _range_bearing_doppler_jacobian_kernel(X2, out)
+    if bad >= 0:
+        raise ValueError("x_rel has zero range: the range-bearing-Doppler Jacobian is "
+                         f"undefined (state index {bad})")
+    return out[0] if single else out
+
+
+def polar_to_cartesian(z, sensor=None):
+    """Convert ``[r, bearing]`` (``(2,)`` or ``(m, 2)``) to Cartesian ``[x, y]``.
+
+    ``m = 0`` scans are returned as ``(0, 2)``.  Ranges must be >= 0.
+    """
+    Z = as_array(z, "z", ndim=(1, 2))
+    if Z.shape[-1] != 2 and Z.size:
+        raise ValueError(f"z must have shape (2,) or (m, 2), got {Z.shape}")
+    if Z.ndim == 2 and Z.shape[0] == 0:
+        return np.zeros((0, 2))
+    if np.any(Z[..., 0] < 0):
+        raise ValueError("z ranges (column 0) must be >= 0")
+    s = _sensor(sensor)
+    r, b = Z[..., 0], Z[..., 1]
+    return np.ascontiguousarray(np.stack([s[0] + r * np.cos(b), s[1] + r * np.sin(b)],
+                                         axis=-1))
+
+
+def converted_measurement_covariance(r, bearing, sigma_r, sigma_bearing):
+    """Linearised covariance of a polar measurement converted to Cartesian.
+
+    ``R_xy = J diag(sigma_r^2, sigma_bearing^2) J^T`` with
+    ``J = [[cos b, -r sin b], [sin b, r cos b]]`` (Bar-Shalom et al. 2001,
+    sec. 10.4.3, first-order conversion).  Returns a 2x2 matrix.
+    """
+    r = as_nonnegative(r, "r")
+    b = as_scalar(bearing, "bearing")
+    sr = as_nonnegative(sigma_r, "sigma_r")
+    sb = as_nonnegative(sigma_bearing, "sigma_bearing")
+    c, s = math.cos(b), math.sin(b)
+    J = np.array([[c, -r * s], [s, r * c]])
+    R = J @ np.diag([sr * sr, sb * sb]) @ J.T
+    return 0.5 * (R + R.T)
