@@ -1,0 +1,389 @@
+"""Joint probabilistic data association (JPDA) by exact enumeration, with the
+image-feature form of Kim, Jung, Kang & Yoon (2016).
+
+A *feasible joint event* assigns every measurement either to clutter or to one
+target that validates it, with at most one measurement per target.  Its
+posterior probability is (parametric form, Poisson clutter of density lam)
+
+    P(theta | Z) = 1/c  prod_j [rho_{j,t_j} N_{j,t_j} / lam]^{tau_j}
+                        prod_t pd_t^{delta_t} (1 - pd_t)^{1 - delta_t}
+
+(rho = 1 for plain JPDA), or with phi! / V**phi instead of lam^{-tau}
+(nonparametric form, phi = number of false measurements).  The marginals
+beta_{j,t} = sum_theta P(theta|Z) omega_{j,t}(theta) and beta_{0,t} (target t
+missed) are accumulated in log space by a numba depth-first enumeration.
+
+With ``rho`` given, the validation matrix is ``valid & (rho >= c_I)`` (eq 5)
+and each target-originated assignment carries the factor rho (eq 6).
+
+The number of feasible events equals the permanent of the T x (m + T) 0/1
+matrix ``[valid.T | I_T]``; :func:`permanent` gives an independent count.
+"""
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from ..core.validation import (as_array, as_bool_matrix, as_positive, as_probabilities,
+                               as_probability)
+
+__all__ = [
+    "jpda_marginals",
+    "feasible_events",
+    "feasible_event_count",
+    "feature_validation",
+    "permanent",
+    "jpda_clusters",
+    "FEATURE_THRESHOLD",
+]
+
+#: c_I of the paper (eq 5): a measurement validates a track only if rho >= c_I.
+FEATURE_THRESHOLD = 0.6
+
+
+@nb.njit(cache=True)
+def _logaddexp_kernel(a, b):
+    """log(exp(a) + exp(b)) for scalars, -inf safe."""
+    if a == -np.inf:
+        return b
+    if b == -np.inf:
+        return a
+    if a > b:
+        return a + math.log1p(math.exp(b - a))
+    return b + math.log1p(math.exp(a - b))
+
+
+@nb.njit(cache=True)
+def _enumerate_kernel(logf, valid, log_pd, log_1mpd, nonparametric, logV):
+    """Depth-first enumeration of all feasible joint events.
+
+    ``logf[j, t]`` is the log weight of assigning measurement j to target t,
+    *excluding* the detection probability (i.e. log(rho N / lam) in the
+    parametric form, log(rho N) in the nonparametric form).  Returns
+    ``(log_acc, log_miss, log_total, n_events)`` with ``log_acc[j, t]`` the
+    unnormalised log marginal of (j, t) and ``log_miss[t]`` that of a miss.
+    """
+    m, T = valid.shape
+    log_acc = np.full((m, T), -np.inf)
+    log_miss = np.full(T, -np.inf)
+    log_total = -np.inf
+    n_events = 0
+    choice = np.full(max(m, 1), -1, np.int64)   # 0 = clutter, c >= 1 = target c-1
+    used = np.zeros(T, np.bool_)
+    # log(phi!) table for the nonparametric form
+    lfact = np.zeros(m + 1)
+    for i in range(1, m + 1):
+        lfact[i] = lfact[i - 1] + math.log(i)
+    j = 0
+    while j >= 0:
+        if j == m:
+            n_events += 1
+            lw = 0.0
+            ndet = 0
+            for jj in range(m):
+                c = choice[jj]
+                if c >= 1:
+                    lw += logf[jj, c - 1]
+                    ndet += 1
+            for t in range(T):
+                if used[t]:
+                    lw += log_pd[t]
+                else:
+                    lw += log_1mpd[t]
+            if nonparametric:
+                phi = m - ndet
+                lw += lfact[phi] - phi * logV
+            if lw > -np.inf:
+                log_total = _logaddexp_kernel(log_total, lw)
+                for jj in range(m):
+                    c = choice[jj]
+                    if c >= 1:
+                        log_acc[jj, c - 1] = _logaddexp_kernel(log_acc[jj, c - 1], lw)
+                for t in range(T):
+                    if not used[t]:
+                        log_miss[t] = _logaddexp_kernel(log_miss[t], lw)
+            j -= 1
+            continue
+        c = choice[j]
+        if c >= 1:
+            used[c - 1] = False
+        c += 1
+        while c >= 1 and c <= T and ((not valid[j, c - 1]) or used[c - 1]):
+            c += 1
+        if c > T:
+            choice[j] = -1
+            j -= 1
+            continue
+        choice[j] = c
+        if c >= 1:
+            used[c - 1] = True
+        j += 1
+        if j < m:
+            choice[j] = -1
+    return log_acc, log_miss, log_total, n_events
+
+
+@nb.njit(cache=True)
+def _list_events_kernel(valid, n_events):
+    """All feasible events as an (n_events, T) array: row e, column t holds the
+    0-based index of the measurement assigned to target t, or -1 for a miss."""
+    m, T = valid.shape
+    out = np.full((n_events, T), -1, np.int64)
+    choice = np.full(max(m, 1), -1, np.int64)
+    used = np.zeros(T, np.bool_)
+    e = 0
+    j = 0
+    while j >= 0:
+        if j == m:
+            for jj in range(m):
+                if choice[jj] >= 1:
+                    out[e, choice[jj] - 1] = jj
+            e += 1
+            j -= 1
+            continue
+        c = choice[j]
+        if c >= 1:
+            used[c - 1] = False
+        c += 1
+        while c >= 1 and c <= T and ((not valid[j, c - 1]) or used[c - 1]):
+            c += 1
+        if c > T:
+            choice[j] = -1
+            j -= 1
+            continue
+        choice[j] = c
+        if c >= 1:
+            used[c - 1] = True
+        j += 1
+        if j < m:
+            choice[j] = -1
+    return out
+
+
+@nb.njit(cache=True)
+def _count_kernel(valid):
+    m, T = valid.shape
+    choice = np.full(max(m, 1), -1, np.int64)
+    used = np.zeros(T, np.bool_)
+    n = 0
+    j = 0
+    while j >= 0:
+        if j == m:
+            n += 1
+            j -= 1
+            continue
+        c = choice[j]
+        if c >= 1:
+            used[c - 1] = False
+        c += 1
+        while c >= 1 and c <= T and ((not valid[j, c - 1]) or used[c - 1]):
+            c += 1
+        if c > T:
+            choice[j] = -1
+            j -= 1
+            continue
+        choice[j] = c
+        if c >= 1:
+            used[c - 1] = True
+        j += 1
+        if j < m:
+            choice[j] = -1
+    return n
+
+
+def _check_valid(valid, name="valid"):
+    arr = np.asarray(valid)
+    if arr.ndim != 2:
+        raise ValueError(f"{name} must have shape (m, T), got {arr.shape}")
+    return as_bool_matrix(arr, name, shape=(None, None))
+
+
+def feature_validation(valid, rho, c_I=FEATURE_THRESHOLD):
+    """The feature validation matrix of eq (5): ``valid & (rho >= c_I)``."""
+    valid = _check_valid(valid)
+    rho = as_array(rho, "rho", shape=valid.shape)
+    if rho.size and (rho.min() < -1 - 1e-12 or rho.max() > 1 + 1e-12):
+        raise ValueError("rho must contain correlations in [-1, 1]")
+    c_I = float(c_I)
+    if not -1.0 <= c_I <= 1.0:
+        raise ValueError(f"c_I must lie in [-1, 1], got {c_I}")
+    return np.ascontiguousarray(valid & (rho >= c_I))
+
+
+def feasible_event_count(valid):
+    """Number of feasible joint events of a validation matrix (m, T), by
+    direct enumeration (no weights)."""
+    valid = _check_valid(valid)
+    return int(_count_kernel(valid))
+
+
+def feasible_events(valid):
+    """All feasible joint events of the (m, T) validation matrix ``valid``.
+
+    Returns an int array (n_events, T): entry [e, t] is the 0-based index of
+    the measurement target t receives in event e, or -1 if t is missed.
+    Rows are sorted lexicographically with misses first.
+    """
+    valid = _check_valid(valid)
+    n = _count_kernel(valid)
+    ev = _list_events_kernel(valid, n)
+    if ev.shape[0] > 1:
+        order = np.lexsort(ev.T[::-1])
+        ev = ev[order]
+    return ev
+
+
+def jpda_marginals(lik, valid, pd, lam, rho=None, mode="parametric", V=None,
+                   c_I=FEATURE_THRESHOLD):
+    """JPDA association probabilities by exact enumeration in log space.
+
+    Parameters
+    ----------
+    lik : (m, T) array of Gaussian likelihoods N(nu_{j,t}; 0, S_t) (>= 0).
+    valid : (m, T) boolean validation matrix (measurement j in track t's gate).
+    pd : (T,) detection probabilities in [0, 1] (or a scalar for all).
+    lam : clutter spatial density (> 0); used by the parametric form.
+    rho : optional (m, T) feature correlations in [-1, 1]; enables the feature
+        form of eqs (5)-(6): validation ``valid & (rho >= c_I)``, factor rho.
+    mode : "parametric" (Poisson clutter, lam) or "nonparametric" (phi!/V^phi).
+    V : gate (surveillance) volume > 0, required for ``mode="nonparametric"``.
+    c_I : feature threshold (0.6 in the paper).
+
+    Returns
+    -------
+    beta : (m + 1, T) array; row 0 is beta_{0,t} (no measurement from t), row
+        j + 1 is beta_{j,t}.  Every column sums to 1.
+    n_events : number of feasible joint events enumerated.
+    """
+    valid = _check_valid(valid)
+    m, T = valid.shape
+    lik = as_array(lik, "lik", ndim=2)
+    if lik.shape != (m, T):
+        raise ValueError(f"lik must have shape {(m, T)} like valid, got {lik.shape}")
+    if lik.size and lik.min() < 0:
+        raise ValueError("lik must contain non-negative likelihoods")
+    if np.ndim(pd) == 0 and not isinstance(pd, (str, bytes)):
+        pd = np.full(T, as_probability(pd, "pd"))
+    pd_arr = as_probabilities(pd, "pd", shape=(T,))
+    if mode not in ("parametric", "nonparametric"):
+        raise ValueError(f"mode must be 'parametric' or 'nonparametric', got {mode!r}")
+    lam = as_positive(lam, "lam") if mode == "parametric" else (
+        1.0 if lam is None else as_positive(lam, "lam"))
+    if mode == "nonparametric":
+        if V is None:
+            raise ValueError("V (gate volume) is required for mode='nonparametric'")
+        V = as_positive(V, "V")
+        logV = math.log(V)
+    else:
+        logV = 0.0
+    with np.errstate(divide="ignore"):
+        logf = np.log(lik)
+        if rho is not None:
+            valid = feature_validation(valid, rho, c_I)
+            rho_arr = as_array(rho, "rho", shape=(m, T))
+            logf = logf + np.log(np.where(valid, np.clip(rho_arr, 0.0, None), 1.0))
+        log_pd = np.log(pd_arr)
+        log_1mpd = np.log1p(-pd_arr)
+    if mode == "parametric":
+        logf = logf - math.log(lam)
+    logf = np.ascontiguousarray(np.where(valid, logf, -np.inf))
+    beta = np.zeros((m + 1, T))
+    if m == 0:
+        beta[0, :] = 1.0
+        return beta, 1
+    log_acc, log_miss, log_total, n_events = _enumerate_kernel(
+        logf, valid, np.ascontiguousarray(log_pd), np.ascontiguousarray(log_1mpd),
+        mode == "nonparametric", logV)
+    if log_total == -np.inf:
+        raise ValueError("every feasible joint event has zero probability "
+                         "(check pd = 1 with empty gates, or zero likelihoods)")
+    beta[1:, :] = np.exp(log_acc - log_total)
+    beta[0, :] = np.exp(log_miss - log_total)
+    return beta, int(n_events)
+
+
+@nb.njit(cache=True)
+def _permanent_kernel(A):
+    """Permanent of a T x n matrix (T <= n) by Ryser's rectangular formula:
+    per(A) = sum_{k=0}^{T-1} (-1)^k C(n-T+k, k) sum_{|S| = T-k} prod_i r_i(S),
+    with r_i(S) the sum of row i over the column subset S (inclusion-exclusion
+    over the image of the row-to-column map)."""
+    T, n = A.shape
+    if T == 0:
+        return 1.0
+    total = 0.0
+    for mask in range(1, 1 << n):
+        size = 0
+        mm = mask
+        while mm:
+            size += mm & 1
+            mm >>= 1
+        if size > T:
+            continue
+        k = T - size
+        prod = 1.0
+        for i in range(T):
+            s = 0.0
+            for j in range(n):
+                if (mask >> j) & 1:
+                    s += A[i, j]
+            prod *= s
+            if prod == 0.0:
+                break
+        # C(n - T + k, k)
+        c = 1.0
+        for q in range(1, k + 1):
+            c = c * (n - T + q) / q
+        if k % 2 == 0:
+            total += c * prod
+        else:
+            total -= c * prod
+    return total
+
+
+def permanent(A):
+    """Permanent of a T x n matrix with T <= n (Ryser's rectangular formula,
+    O(2^n T n)): the sum over injective row-to-column maps of the products."""
+    A = as_array(A, "A", ndim=2)
+    T, n = A.shape
+    if T > n:
+        raise ValueError(f"A must have no more rows than columns, got shape {A.shape}")
+    if n > 30:
+        raise ValueError(f"A has {n} columns; Ryser's formula is limited to 30 here")
+    return float(_permanent_kernel(A))
+
+
+def jpda_clusters(valid):
+    """Connected components of the track-measurement validation graph.
+
+    Returns a list of ``(track_indices, measurement_indices)`` int arrays, one
+    per cluster that contains at least one track (tracks with empty gates
+    form singleton clusters with no measurements).  Measurements validated by
+    no track belong to no cluster.
+    """
+    valid = _check_valid(valid)
+    m, T = valid.shape
+    parent = np.arange(m + T)
+
+    def find(a):
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    js, ts = np.nonzero(valid)
+    for j, t in zip(js, ts):
+        ra, rb = find(j), find(m + t)
+        if ra != rb:
+            parent[ra] = rb
+    roots = {}
+    for t in range(T):
+        roots.setdefault(find(m + t), ([], []))[0].append(t)
+    for j in range(m):
+        r = find(j)
+        if r in roots:
+            roots[r][1].append(j)
+    return [(np.array(tr, dtype=np.int64), np.array(ms, dtype=np.int64))
+            for tr, ms in roots.values()]
