@@ -90,7 +90,7 @@ def test_coordinated_turn_bad_inputs():
 
 
 @pytest.mark.parametrize("T,tau", [(1.0, 20.0), (0.1, 1000.0), (2.0, 1.5), (1.0, 0.999),
-                                   (1.0, 1.001), (1.0, 1e6), (5.0, 0.5), (0.01, 60.0)])
+                                   (1.0, 1.001), (1.0, 1e6), (3.0, 1.0), (0.01, 60.0)])
 def test_singer_equals_van_loan(T, tau):
     sigma_m = 1.7
     a = 1.0 / tau
@@ -103,6 +103,23 @@ def test_singer_equals_van_loan(T, tau):
     np.testing.assert_allclose(singer_transition(T, tau), scipy.linalg.expm(A * T),
                                rtol=1e-9, atol=1e-15)
     np.testing.assert_allclose(singer_process_noise(T, tau, sigma_m), Q, rtol=1e-9, atol=0)
+
+
+@pytest.mark.parametrize("T,tau", [(5.0, 0.5), (1.0, 20.0), (20.0, 0.5)])
+def test_singer_q_equals_quadrature(T, tau):
+    # Van Loan's Q loses ~e^{T/tau} eps for T >> tau; check there by quadrature of
+    # int_0^T F(s) [0,0,1]^T (2 s^2/tau) [0,0,1] F(s)^T ds.
+    import scipy.integrate
+    sm = 1.7
+
+    def integrand(s, i, j):
+        col = singer_transition(s, tau)[:, 2]
+        return col[i] * col[j] * 2.0 * sm**2 / tau
+
+    Qq = np.array([[scipy.integrate.quad(integrand, 0.0, T, args=(i, j), epsabs=0.0,
+                                         epsrel=1e-13, limit=200)[0] for j in range(3)]
+                   for i in range(3)])
+    np.testing.assert_allclose(singer_process_noise(T, tau, sm), Qq, rtol=1e-11, atol=0)
 
 
 def test_singer_limits():

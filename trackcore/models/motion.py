@@ -219,7 +219,10 @@ def van_loan_discretize(A, L_Qc_Lt, T):
     ``L_Qc_Lt`` is the continuous noise intensity ``L Qc L^T`` (n x n, PSD).
     Returns ``(F, Q)`` with ``F = expm(A T)`` and
     ``Q = int_0^T expm(A s) L Qc L^T expm(A s)^T ds``, computed with Van Loan's
-    (1978) block matrix exponential.
+    (1978) block matrix exponential.  Accuracy: the block exponential contains
+    ``expm(-A T)``, so for strongly stable modes (eigenvalue ``-lambda`` with
+    ``lambda T`` large) roughly ``e^{lambda T} * eps`` relative accuracy is lost;
+    prefer closed forms there (e.g. :func:`singer_process_noise`).
     """
     A = as_square_matrix(A, "A")
     n = A.shape[0]
