@@ -1,0 +1,179 @@
+"""Tests for trackcore.montecarlo: reproducibility on every executor, ordering, validation."""
+import io
+import sys
+from collections import namedtuple
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
+
+import numpy as np
+import pytest
+
+from trackcore.montecarlo import default_chunksize, run, stack_results
+
+Result = namedtuple("Result", "mean path")
+
+
+def random_walk_trial(rng, n_steps=20, scale=1.0):
+    """A small but real trial: a random walk with Gaussian steps."""
+    steps = rng.normal(0.0, scale, size=(n_steps, 2))
+    path = np.cumsum(steps, axis=0)
+    return {"final": path[-1], "max_abs": float(np.max(np.abs(path))), "n": rng.integers(0, 10)}
+
+
+def indexed_trial(rng, i):
+    return i, float(rng.random())
+
+
+def namedtuple_trial(rng):
+    path = rng.normal(size=5)
+    return Result(float(path.mean()), path)
+
+
+def failing_trial(rng):
+    raise RuntimeError("trial failed on purpose")
+
+
+def _expected(seed, n, **kw):
+    out = []
+    for ss in np.random.SeedSequence(seed).spawn(n):
+        out.append(random_walk_trial(np.random.default_rng(ss), **kw))
+    return out
+
+
+def _assert_identical(a, b):
+    assert len(a) == len(b)
+    for ra, rb in zip(a, b):
+        assert ra.keys() == rb.keys()
+        for k in ra:
+            assert np.array_equal(ra[k], rb[k]), k
+
+
+def test_serial_matches_definition_and_order():
+    res = run(random_walk_trial, 37, seed=2026)
+    _assert_identical(res, _expected(2026, 37))
+    assert run(random_walk_trial, 0, seed=1) == []
+
+
+def test_args_kwargs_and_index():
+    res = run(random_walk_trial, 5, 3, args=(7,), kwargs={"scale": 2.0})
+    _assert_identical(res, _expected(3, 5, n_steps=7, scale=2.0))
+    res = run(indexed_trial, 9, 4, pass_index=True, chunksize=2)
+    assert [r[0] for r in res] == list(range(9))
+    assert [r[1] for r in res] == [float(np.random.default_rng(s).random())
+                                   for s in np.random.SeedSequence(4).spawn(9)]
+
+
+def test_seed_sequence_input_is_repeatable():
+    ss = np.random.SeedSequence(11)
+    a = run(random_walk_trial, 4, ss)
+    b = run(random_walk_trial, 4, ss)
+    _assert_identical(a, b)
+    _assert_identical(a, _expected(11, 4))
+
+
+@pytest.mark.parametrize("chunksize", [None, 1, 4, 100])
+def test_thread_and_process_pools_bit_identical(chunksize):
+    serial = run(random_walk_trial, 50, seed=5)
+    with ThreadPoolExecutor(max_workers=3) as ex:
+        _assert_identical(run(random_walk_trial, 50, 5, executor=ex, chunksize=chunksize), serial)
+    with ProcessPoolExecutor(max_workers=2) as ex:
+        _assert_identical(run(random_walk_trial, 50, 5, executor=ex, chunksize=chunksize), serial)
+
+
+def test_dask_executor_bit_identical():
+    distributed = pytest.importorskip("distributed")
+    import cloudpickle
+
+    # Dask workers are fresh processes that cannot import this test module by name,
+    # so ship its functions by value.
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    try:
+        serial = run(random_walk_trial, 40, seed=8)
+        with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                      dashboard_address=None) as cluster, \
+                distributed.Client(cluster) as client:
+            ex = client.get_executor()
+            _assert_identical(run(random_walk_trial, 40, 8, executor=ex), serial)
+            _assert_identical(run(random_walk_trial, 40, 8, executor=ex, chunksize=3), serial)
+    finally:
+        cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
+
+
+def test_trial_exception_propagates():
+    with pytest.raises(RuntimeError, match="on purpose"):
+        run(failing_trial, 3, 0)
+    with ThreadPoolExecutor(max_workers=2) as ex:
+        with pytest.raises(RuntimeError, match="on purpose"):
+            run(failing_trial, 3, 0, executor=ex)
+
+
+def test_progress_callback_and_stderr(monkeypatch, capsys):
+    calls = []
+    run(random_walk_trial, 10, 1, progress=lambda d, t: calls.append((d, t)), chunksize=4)
+    assert calls == [(4, 10), (8, 10), (10, 10)]
+    calls.clear()
+    with ThreadPoolExecutor(max_workers=2) as ex:
+        run(random_walk_trial, 10, 1, executor=ex, progress=lambda d, t: calls.append((d, t)),
+            chunksize=4)
+    assert sorted(calls)[-1] == (10, 10) and len(calls) == 3
+    fake = io.StringIO()
+    monkeypatch.setattr(sys, "__stderr__", fake)
+    run(random_walk_trial, 3, 1, progress=True, chunksize=2)
+    assert fake.getvalue() == "montecarlo: 2/3 runs done\nmontecarlo: 3/3 runs done\n"
+    # default: nothing written anywhere a notebook would store
+    fake.truncate(0); fake.seek(0)
+    run(random_walk_trial, 3, 1)
+    out = capsys.readouterr()
+    assert fake.getvalue() == "" and out.out == "" and out.err == ""
+
+
+def test_default_chunksize():
+    assert default_chunksize(0) == 1
+    assert default_chunksize(10) == 1
+    assert default_chunksize(1000) == 32
+
+
+def test_bad_input():
+    with pytest.raises(TypeError, match="trial"):
+        run(42, 3, 0)
+    with pytest.raises(ValueError, match="n_runs"):
+        run(random_walk_trial, -1, 0)
+    with pytest.raises(TypeError, match="n_runs"):
+        run(random_walk_trial, 2.5, 0)
+    with pytest.raises(ValueError, match="seed"):
+        run(random_walk_trial, 2, -3)
+    with pytest.raises(TypeError, match="seed"):
+        run(random_walk_trial, 2, "abc")
+    with pytest.raises(TypeError, match="seed"):
+        run(random_walk_trial, 2, np.random.default_rng(0))
+    with pytest.raises(TypeError, match="executor"):
+        run(random_walk_trial, 2, 0, executor="threads")
+    with pytest.raises(TypeError, match="progress"):
+        run(random_walk_trial, 2, 0, progress="yes")
+    with pytest.raises(ValueError, match="chunksize"):
+        run(random_walk_trial, 2, 0, chunksize=0)
+    with pytest.raises(TypeError, match="args"):
+        run(random_walk_trial, 2, 0, args=[3])
+    with pytest.raises(TypeError, match="kwargs"):
+        run(random_walk_trial, 2, 0, kwargs=[("scale", 1.0)])
+
+
+def test_stack_results():
+    res = run(random_walk_trial, 6, 2)
+    st = stack_results(res)
+    assert st["final"].shape == (6, 2) and st["max_abs"].shape == (6,)
+    assert np.array_equal(st["final"][3], res[3]["final"])
+    nt = stack_results(run(namedtuple_trial, 4, 2))
+    assert isinstance(nt, Result) and nt.path.shape == (4, 5) and nt.mean.shape == (4,)
+    tp = stack_results(run(indexed_trial, 3, 2, pass_index=True))
+    assert isinstance(tp, tuple) and np.array_equal(tp[0], [0, 1, 2])
+    arr = stack_results([np.ones(3), np.zeros(3)])
+    assert arr.shape == (2, 3)
+    assert stack_results([1.0, 2.0]).shape == (2,)
+    with pytest.raises(ValueError, match="results"):
+        stack_results([])
+    with pytest.raises(ValueError, match="keys"):
+        stack_results([{"a": 1}, {"b": 2}])
+    with pytest.raises(ValueError, match="inconsistent"):
+        stack_results([np.ones(2), np.ones(3)])
+    with pytest.raises(TypeError, match="results"):
+        stack_results(np.ones(3))

@@ -1,0 +1,212 @@
+"""Monte Carlo runner: independent, reproducible runs on any executor.
+
+Run ``i`` of ``n_runs`` with master seed ``seed`` calls::
+
+    trial(rng_i, *args, **kwargs)          # default
+    trial(rng_i, i, *args, **kwargs)       # with pass_index=True
+
+where ``rng_i = numpy.random.default_rng(numpy.random.SeedSequence(seed).spawn(n_runs)[i])``.
+The results come back as a list in run order, bit-identical whether the runs go
+serially (``executor=None``), on a ``concurrent.futures`` ``ThreadPoolExecutor``
+or ``ProcessPoolExecutor``, or on a Dask cluster through
+``distributed.Client(...).get_executor()``: each task receives the child
+``SeedSequence`` objects (small and picklable), never a ``Generator``, and builds
+its generators where it runs.  Runs are sent in chunks so that per-task
+overhead stays small.
+
+For process pools and Dask the ``trial`` function (and ``args``/``kwargs``)
+must be picklable: define it at module level in an importable module.
+
+Progress
+--------
+Off by default, so nothing reaches stored notebook outputs.  ``progress=True``
+writes one line per finished chunk to the *process's* standard error
+(``sys.__stderr__``: the terminal or Jupyter kernel log, not the notebook cell),
+and the same message always goes to the ``logging`` logger
+``"trackcore.montecarlo"`` at DEBUG level.  ``progress`` may also be a callable
+``progress(done, total)`` called in the submitting process after every chunk.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import sys
+from concurrent.futures import Executor, FIRST_COMPLETED, wait
+
+import numpy as np
+
+from .core.rng import spawn_seed_sequences
+from .core.validation import as_count, as_int
+
+__all__ = ["run", "stack_results", "default_chunksize"]
+
+logger = logging.getLogger("trackcore.montecarlo")
+
+#: Target number of tasks a run is split into on an executor.
+_TARGET_TASKS = 32
+
+
+def _fresh_seed(seed):
+    """An unspawned copy of a SeedSequence, so repeated calls give the same children."""
+    if isinstance(seed, np.random.SeedSequence):
+        return np.random.SeedSequence(entropy=seed.entropy, spawn_key=seed.spawn_key,
+                                      pool_size=seed.pool_size)
+    return seed
+
+
+def _run_chunk(trial, start, seeds, pass_index, args, kwargs):
+    """Executed on the worker: run the trials for consecutive run indices."""
+    out = []
+    for k, ss in enumerate(seeds):
+        rng = np.random.default_rng(ss)
+        if pass_index:
+            out.append(trial(rng, start + k, *args, **kwargs))
+        else:
+            out.append(trial(rng, *args, **kwargs))
+    return out
+
+
+def default_chunksize(n_runs: int) -> int:
+    """Runs per task on an executor: ``ceil(n_runs / 32)`` (at least 1)."""
+    n_runs = as_count(n_runs, "n_runs")
+    return max(1, math.ceil(n_runs / _TARGET_TASKS))
+
+
+def _progress_callback(progress):
+    if progress is None or progress is False:
+        def report(done, total):
+            logger.debug("montecarlo: %d/%d runs done", done, total)
+        return report
+    if progress is True:
+        def report(done, total):
+            logger.debug("montecarlo: %d/%d runs done", done, total)
+            stream = sys.__stderr__
+            if stream is not None:
+                stream.write(f"montecarlo: {done}/{total} runs done\n")
+                stream.flush()
+        return report
+    if callable(progress):
+        def report(done, total):
+            logger.debug("montecarlo: %d/%d runs done", done, total)
+            progress(done, total)
+        return report
+    raise TypeError(f"progress must be a bool or a callable progress(done, total), "
+                    f"got {type(progress).__name__}")
+
+
+def run(trial, n_runs, seed, executor=None, progress=False, args=(), kwargs=None, *,
+        pass_index=False, chunksize=None):
+    """Run ``trial`` ``n_runs`` times with independent, reproducible generators.
+
+    Parameters
+    ----------
+    trial : callable
+        ``trial(rng, *args, **kwargs)`` (or ``trial(rng, i, *args, **kwargs)`` with
+        ``pass_index=True``) returning anything picklable.
+    n_runs : int
+        Number of runs (``0`` gives ``[]``).
+    seed : int or numpy.random.SeedSequence
+        Master seed; run ``i`` uses ``SeedSequence(seed).spawn(n_runs)[i]``.  A
+        ``SeedSequence`` is used through an unspawned copy, so the call is repeatable.
+    executor : concurrent.futures.Executor, optional
+        ``None`` runs serially in this process.  Any object with a
+        ``submit(fn, *args) -> Future`` method works (thread/process pools,
+        ``distributed.Client.get_executor()``).
+    progress : bool or callable
+        See the module docstring; default off.
+    args, kwargs
+        Extra arguments passed to every trial.
+    pass_index : bool
+        Also pass the run index ``i`` as second argument.
+    chunksize : int, optional
+        Runs per submitted task (default :func:`default_chunksize`).
+
+    Returns
+    -------
+    list
+        The ``n_runs`` results in run order.
+    """
+    if not callable(trial):
+        raise TypeError(f"trial must be callable, got {type(trial).__name__}")
+    n_runs = as_count(n_runs, "n_runs")
+    seeds = spawn_seed_sequences(_fresh_seed(seed), n_runs)  # validates seed
+    if not isinstance(args, tuple):
+        raise TypeError(f"args must be a tuple, got {type(args).__name__}")
+    kwargs = {} if kwargs is None else kwargs
+    if not isinstance(kwargs, dict):
+        raise TypeError(f"kwargs must be a dict, got {type(kwargs).__name__}")
+    if not isinstance(pass_index, (bool, np.bool_)):
+        raise TypeError(f"pass_index must be a bool, got {type(pass_index).__name__}")
+    if executor is not None and not callable(getattr(executor, "submit", None)):
+        raise TypeError(f"executor must be None or have a submit() method "
+                        f"(concurrent.futures.Executor), got {type(executor).__name__}")
+    chunksize = (default_chunksize(n_runs) if chunksize is None
+                 else as_int(chunksize, "chunksize", minimum=1))
+    report = _progress_callback(progress)
+
+    bounds = [(s, min(s + chunksize, n_runs)) for s in range(0, n_runs, chunksize)]
+    if executor is None:
+        results = []
+        for start, stop in bounds:
+            results.extend(_run_chunk(trial, start, seeds[start:stop], pass_index, args, kwargs))
+            report(stop, n_runs)
+        return results
+
+    futures = {}
+    for j, (start, stop) in enumerate(bounds):
+        fut = executor.submit(_run_chunk, trial, start, seeds[start:stop], pass_index,
+                              args, kwargs)
+        futures[fut] = j
+    chunks = [None] * len(bounds)
+    pending = set(futures)
+    done_runs = 0
+    try:
+        while pending:
+            finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in finished:
+                j = futures[fut]
+                chunks[j] = fut.result()
+                done_runs += bounds[j][1] - bounds[j][0]
+                report(done_runs, n_runs)
+    except BaseException:
+        for fut in pending:
+            fut.cancel()
+        raise
+    return [r for chunk in chunks for r in chunk]
+
+
+def _stack(values, name):
+    try:
+        return np.stack([np.asarray(v) for v in values])
+    except ValueError as exc:
+        raise ValueError(f"{name}: results have inconsistent shapes ({exc})") from None
+
+
+def stack_results(results):
+    """Stack a list of per-run results into arrays with the run axis first.
+
+    * list of dicts (same keys) -> dict of arrays, ``out[key][i]`` is run ``i``;
+    * list of tuples / NamedTuples -> tuple (same NamedTuple type) of arrays;
+    * list of arrays or scalars -> one array.
+    """
+    if not isinstance(results, (list, tuple)):
+        raise TypeError(f"results must be a list of per-run results, got {type(results).__name__}")
+    if len(results) == 0:
+        raise ValueError("results must not be empty (cannot infer the structure of a run)")
+    first = results[0]
+    if isinstance(first, dict):
+        keys = list(first)
+        for i, r in enumerate(results):
+            if not isinstance(r, dict) or set(r) != set(keys):
+                raise ValueError(f"results[{i}] does not have the keys of results[0]: {keys}")
+        return {k: _stack([r[k] for r in results], f"results[...][{k!r}]") for k in keys}
+    if isinstance(first, tuple):
+        n = len(first)
+        for i, r in enumerate(results):
+            if not isinstance(r, tuple) or len(r) != n:
+                raise ValueError(f"results[{i}] is not a tuple of length {n} like results[0]")
+        cols = [_stack([r[j] for r in results], f"results[...][{j}]") for j in range(n)]
+        if hasattr(first, "_fields"):
+            return type(first)(*cols)
+        return tuple(cols)
+    return _stack(results, "results")
