@@ -1,0 +1,737 @@
+"""Particle-filter kernels: propagation, weighting, ESS, resampling.
+
+Particles are ``(N, n)`` C-contiguous float64 arrays and weights travel as
+``(N,)`` log-weights.  Every public function validates its input once and
+then calls a ``@numba.njit(cache=True)`` kernel; the ``*_kernel`` functions
+take plain arrays (and a ``numpy.random.Generator`` where randomness is
+needed) and can be called from other numba kernels.
+
+Random draws are always made serially in a fixed order, so every result is
+a deterministic function of the generator's state.  Only the per-particle
+likelihood evaluation may run in parallel (element-wise, hence
+deterministic); all reductions are serial.
+
+Resampling schemes (all O(N), one pass over the cumulative weights):
+
+* systematic -- one uniform ``u0``; positions ``(u0 + i) / N``;
+* stratified -- one uniform per stratum; positions ``(u_i + i) / N``;
+* multinomial -- ``N`` i.i.d. uniforms, generated already sorted via
+  normalised cumulative exponential spacings (no sort, no binary search);
+* residual -- ``floor(N w_i)`` deterministic copies, the remaining
+  ``R = N - sum floor(N w_i)`` drawn *systematically* from the residual
+  weights (so every count lies in ``[floor(N w_i), ceil(N w_i)]``).
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numba as nb
+import numpy as np
+
+from ..core.logmath import logsumexp_kernel
+from ..core.validation import (as_array, as_covariance, as_int, as_matrix, as_rng,
+                               as_scalar, as_square_matrix, as_vector)
+
+__all__ = [
+    "noise_factor",
+    "propagate_linear",
+    "propagate_linear_kernel",
+    "effective_sample_size",
+    "effective_sample_size_kernel",
+    "systematic_resample",
+    "stratified_resample",
+    "residual_resample",
+    "multinomial_resample",
+    "systematic_resample_kernel",
+    "stratified_resample_kernel",
+    "residual_resample_kernel",
+    "multinomial_resample_kernel",
+    "systematic_indices_kernel",
+    "stratified_indices_kernel",
+    "RESAMPLING_SCHEMES",
+    "resample_particles",
+    "loglik_gaussian_position",
+    "loglik_gaussian_position_kernel",
+    "loglik_range_bearing",
+    "loglik_range_bearing_kernel",
+    "BootstrapStep",
+    "bootstrap_step",
+    "bootstrap_step_kernel",
+    "MODEL_POSITION",
+    "MODEL_RANGE_BEARING",
+    "weighted_mean_cov",
+    "weighted_mean_cov_kernel",
+]
+
+_TWO_PI = 2.0 * math.pi
+_LOG_2PI = math.log(2.0 * math.pi)
+
+#: measurement-model codes for :func:`bootstrap_step_kernel`
+MODEL_POSITION = 0
+MODEL_RANGE_BEARING = 1
+_MODELS = {"position": MODEL_POSITION, "range_bearing": MODEL_RANGE_BEARING}
+
+#: names accepted by ``scheme=``
+RESAMPLING_SCHEMES = ("systematic", "stratified", "residual", "multinomial")
+
+# above this many particles the likelihood loop runs with prange
+_PARALLEL_MIN = 20000
+
+
+# --------------------------------------------------------------------------
+# small helpers
+# --------------------------------------------------------------------------
+@nb.njit(cache=True, inline="always")
+def _wrap(a):
+    """Wrap an angle to (-pi, pi]."""
+    if -math.pi < a <= math.pi:
+        return a
+    return math.pi - ((math.pi - a) % _TWO_PI)
+
+
+def noise_factor(Q, name: str = "Q", rtol: float = 1e-12):
+    """A factor ``L`` (``(n, k)``, ``k = rank Q``) with ``Q = L L^T``.
+
+    Works for positive semi-definite, singular ``Q`` (e.g. the rank-2 DWNA
+    process noise of a 4-state CV model) via a symmetric eigendecomposition;
+    eigenvalues below ``rtol * max eigenvalue`` are dropped, so only ``k``
+    normal draws per particle are needed.  ``Q = 0`` gives an ``(n, 0)``
+    factor (noise-free propagation).
+    """
+    Q = as_covariance(Q, name)
+    n = Q.shape[0]
+    if n == 0:
+        return np.zeros((0, 0))
+    lam, V = np.linalg.eigh(Q)
+    top = max(float(lam[-1]), 0.0)
+    keep = lam > rtol * top if top > 0 else np.zeros(n, dtype=bool)
+    L = V[:, keep] * np.sqrt(lam[keep])
+    return np.ascontiguousarray(L[:, ::-1])  # largest variance first
+
+
+_noise_factor = noise_factor  # propagate_linear's keyword shadows the name
+
+
+def _as_particles(particles, name="particles", n=None):
+    arr = as_array(particles, name, ndim=2)
+    if n is not None and arr.shape[1] != n:
+        raise ValueError(f"{name} must have shape (N, {n}), got {arr.shape}")
+    return arr
+
+
+def _as_logw(logw, N=None, name="logw"):
+    w = as_array(logw, name, ndim=1, finite=False)
+    if N is not None and w.shape[0] != N:
+        raise ValueError(f"{name} must have shape ({N},), got {w.shape}")
+    if np.any(np.isnan(w)) or np.any(w == np.inf):
+        raise ValueError(f"{name} must not contain NaN or +inf")
+    if w.size and not np.any(np.isfinite(w)):
+        raise ValueError(f"{name} has zero total weight (all entries are -inf)")
+    return w
+
+
+def _as_weights(w, name="w"):
+    arr = as_array(w, name, ndim=1, finite=False)
+    if arr.size == 0:
+        raise ValueError(f"{name} must not be empty")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must contain only finite values (found NaN or inf)")
+    if np.any(arr < 0):
+        raise ValueError(f"{name} must be non-negative")
+    total = float(arr.sum())
+    if not total > 0:
+        raise ValueError(f"{name} must have a positive sum (all weights are zero)")
+    return arr
+
+
+def _n_out(n_out, N):
+    if n_out is None:
+        return N
+    return as_int(n_out, "n_out", minimum=0)
+
+
+# --------------------------------------------------------------------------
+# propagation
+# --------------------------------------------------------------------------
+@nb.njit(cache=True)
+def propagate_linear_kernel(particles, F, L, rng, out):
+    """``out[i] = F particles[i] + L w_i``, ``w_i ~ N(0, I_k)``.
+
+    ``L`` is ``(n, k)``; the ``k`` draws of particle ``i`` are taken in
+    order from ``rng`` (``rng.standard_normal()``), particle by particle.
+    ``out`` may be the same array as ``particles``.
+    """
+    N, n = particles.shape
+    k = L.shape[1]
+    tmp = np.empty(n)
+    w = np.empty(k)
+    for i in range(N):
+        for a in range(n):
+            s = 0.0
+            for b in range(n):
+                s += F[a, b] * particles[i, b]
+            tmp[a] = s
+        for c in range(k):
+            w[c] = rng.standard_normal()
+        for a in range(n):
+            s = tmp[a]
+            for c in range(k):
+                s += L[a, c] * w[c]
+            out[i, a] = s
+
+
+def propagate_linear(particles, F, Q, rng, *, noise_factor=None, out=None):
+    """Propagate particles through ``x' = F x + w``, ``w ~ N(0, Q)``.
+
+    ``Q`` may be singular (PSD); it is factored as ``Q = L L^T`` by
+    :func:`noise_factor`.  Pass ``noise_factor=L`` (``(n, k)`` with
+    ``Q = L L^T``, e.g. ``Gamma * sigma``) to skip the factorisation, in which
+    case ``Q`` may be ``None``.  Returns a new ``(N, n)`` array unless ``out``
+    is given (which may be ``particles`` itself for in-place propagation).
+    """
+    rng = as_rng(rng)
+    X = _as_particles(particles)
+    n = X.shape[1]
+    F = as_square_matrix(F, "F", n)
+    if noise_factor is None:
+        if Q is None:
+            raise ValueError("Q must be given when noise_factor is None")
+        L = _noise_factor(Q, "Q")
+        if L.shape[0] != n:
+            raise ValueError(f"Q must be ({n}, {n}), got {np.shape(Q)}")
+    else:
+        L = as_matrix(noise_factor, "noise_factor", (n, None))
+    if out is None:
+        out = np.empty_like(X)
+    else:
+        if not (isinstance(out, np.ndarray) and out.dtype == np.float64
+                and out.flags.c_contiguous and out.shape == X.shape):
+            raise ValueError(f"out must be a C-contiguous float64 array of shape {X.shape}")
+        if out is particles and X is not particles:
+            raise ValueError("in-place propagation needs particles as a C-contiguous float64 array")
+    propagate_linear_kernel(X, F, L, rng, out)
+    return out
+
+
+# --------------------------------------------------------------------------
+# effective sample size and moments
+# --------------------------------------------------------------------------
+@nb.njit(cache=True)
+def effective_sample_size_kernel(logw):
+    """``1 / sum w_i^2`` of the normalised weights ``w ∝ exp(logw)``."""
+    N = logw.shape[0]
+    m = -np.inf
+    for i in range(N):
+        if logw[i] > m:
+            m = logw[i]
+    if m == -np.inf:
+        return 0.0
+    s1 = 0.0
+    s2 = 0.0
+    for i in range(N):
+        e = math.exp(logw[i] - m)
+        s1 += e
+        s2 += e * e
+    return s1 * s1 / s2
+
+
+def effective_sample_size(logw):
+    """Effective sample size ``1 / sum w^2`` from (unnormalised) log-weights.
+
+    Lies in ``[1, N]``.  Raises ``ValueError`` for NaN/+inf entries or when all
+    weights are zero.
+    """
+    w = _as_logw(logw)
+    if w.size == 0:
+        raise ValueError("logw must not be empty")
+    return float(effective_sample_size_kernel(w))
+
+
+@nb.njit(cache=True)
+def weighted_mean_cov_kernel(particles, logw, mean, cov):
+    """Weighted mean and covariance (``sum w (x-m)(x-m)^T``) into ``mean``, ``cov``."""
+    N, n = particles.shape
+    m = -np.inf
+    for i in range(N):
+        if logw[i] > m:
+            m = logw[i]
+    tot = 0.0
+    for a in range(n):
+        mean[a] = 0.0
+        for b in range(n):
+            cov[a, b] = 0.0
+    for i in range(N):
+        wi = math.exp(logw[i] - m)
+        tot += wi
+        for a in range(n):
+            mean[a] += wi * particles[i, a]
+    for a in range(n):
+        mean[a] /= tot
+    for i in range(N):
+        wi = math.exp(logw[i] - m) / tot
+        for a in range(n):
+            da = particles[i, a] - mean[a]
+            for b in range(a, n):
+                cov[a, b] += wi * da * (particles[i, b] - mean[b])
+    for a in range(n):
+        for b in range(a + 1, n):
+            cov[b, a] = cov[a, b]
+
+
+def weighted_mean_cov(particles, logw):
+    """``(mean (n,), cov (n, n))`` of the particle approximation."""
+    X = _as_particles(particles)
+    if X.shape[0] == 0:
+        raise ValueError("particles must not be empty")
+    w = _as_logw(logw, X.shape[0])
+    n = X.shape[1]
+    mean = np.empty(n)
+    cov = np.empty((n, n))
+    weighted_mean_cov_kernel(X, w, mean, cov)
+    return mean, cov
+
+
+# --------------------------------------------------------------------------
+# resampling kernels (w non-negative, sum > 0; normalised internally)
+# --------------------------------------------------------------------------
+@nb.njit(cache=True)
+def systematic_indices_kernel(w, u0, out):
+    """Systematic resampling with offset ``u0`` in [0, 1): positions
+    ``(u0 + i) / M`` (``M = len(out)``) against the cumulative weights."""
+    N = w.shape[0]
+    M = out.shape[0]
+    total = 0.0
+    for j in range(N):
+        total += w[j]
+    j = 0
+    c = w[0]
+    for i in range(M):
+        pos = (u0 + i) / M * total
+        while pos >= c and j < N - 1:
+            j += 1
+            c += w[j]
+        out[i] = j
+
+
+@nb.njit(cache=True)
+def stratified_indices_kernel(w, u, out):
+    """Stratified resampling: positions ``(u[i] + i) / M`` with ``u`` in [0, 1)."""
+    N = w.shape[0]
+    M = out.shape[0]
+    total = 0.0
+    for j in range(N):
+        total += w[j]
+    j = 0
+    c = w[0]
+    for i in range(M):
+        pos = (u[i] + i) / M * total
+        while pos >= c and j < N - 1:
+            j += 1
+            c += w[j]
+        out[i] = j
+
+
+@nb.njit(cache=True)
+def systematic_resample_kernel(w, rng, out):
+    """Systematic resampling; draws one ``rng.random()``."""
+    systematic_indices_kernel(w, rng.random(), out)
+
+
+@nb.njit(cache=True)
+def stratified_resample_kernel(w, rng, out):
+    """Stratified resampling; draws ``len(out)`` values of ``rng.random()``."""
+    M = out.shape[0]
+    u = np.empty(M)
+    for i in range(M):
+        u[i] = rng.random()
+    stratified_indices_kernel(w, u, out)
+
+
+@nb.njit(cache=True)
+def multinomial_resample_kernel(w, rng, out):
+    """Multinomial resampling in O(N): ``M`` sorted i.i.d. uniforms are made
+    from normalised cumulative sums of ``M + 1`` standard exponentials."""
+    N = w.shape[0]
+    M = out.shape[0]
+    if M == 0:
+        return
+    e = np.empty(M)
+    s = 0.0
+    for i in range(M):
+        s += rng.standard_exponential()
+        e[i] = s
+    s += rng.standard_exponential()
+    total = 0.0
+    for j in range(N):
+        total += w[j]
+    j = 0
+    c = w[0]
+    scale = total / s
+    for i in range(M):
+        pos = e[i] * scale
+        while pos >= c and j < N - 1:
+            j += 1
+            c += w[j]
+        out[i] = j
+
+
+@nb.njit(cache=True)
+def residual_resample_kernel(w, rng, out):
+    """Residual resampling: ``floor(M w_i)`` copies, the rest systematic on the
+    residuals ``M w_i - floor(M w_i)``; draws one ``rng.random()`` if any
+    residual copies are needed."""
+    N = w.shape[0]
+    M = out.shape[0]
+    total = 0.0
+    for j in range(N):
+        total += w[j]
+    res = np.empty(N)
+    k = 0
+    rtot = 0.0
+    for j in range(N):
+        x = M * (w[j] / total)
+        c = int(math.floor(x))
+        if k + c > M:  # round-off guard
+            c = M - k
+        for _ in range(c):
+            out[k] = j
+            k += 1
+        r = x - c
+        if r < 0.0:
+            r = 0.0
+        res[j] = r
+        rtot += r
+    R = M - k
+    if R > 0:
+        if rtot <= 0.0:  # only possible through round-off
+            for j in range(N):
+                res[j] = w[j]
+        systematic_indices_kernel(res, rng.random(), out[k:])
+
+
+def _resample(kernel, w, rng, n_out):
+    rng = as_rng(rng)
+    arr = _as_weights(w)
+    M = _n_out(n_out, arr.shape[0])
+    out = np.empty(M, dtype=np.int64)
+    if M:
+        kernel(arr, rng, out)
+    return out
+
+
+def systematic_resample(w, rng, n_out=None):
+    """Indices (int64, ``(n_out,)``, default ``N``) by systematic resampling.
+
+    ``w``: non-negative finite weights with positive sum (normalised
+    internally).  Uses one ``rng.random()`` draw.  Each index ``i`` appears
+    ``floor(M w_i)`` or ``ceil(M w_i)`` times; output is sorted.
+    """
+    return _resample(systematic_resample_kernel, w, rng, n_out)
+
+
+def stratified_resample(w, rng, n_out=None):
+    """Indices by stratified resampling (one uniform per stratum); sorted."""
+    return _resample(stratified_resample_kernel, w, rng, n_out)
+
+
+def residual_resample(w, rng, n_out=None):
+    """Indices by residual resampling (systematic on the residuals).
+
+    The deterministic copies come first (in index order), then the residual
+    draws (in index order).
+
+    Each count lies in ``[floor(M w_i), ceil(M w_i)]``.
+    """
+    return _resample(residual_resample_kernel, w, rng, n_out)
+
+
+def multinomial_resample(w, rng, n_out=None):
+    """Indices by multinomial resampling (i.i.d. draws from ``w``), sorted, O(N)."""
+    return _resample(multinomial_resample_kernel, w, rng, n_out)
+
+
+_RESAMPLERS = {
+    "systematic": systematic_resample,
+    "stratified": stratified_resample,
+    "residual": residual_resample,
+    "multinomial": multinomial_resample,
+}
+
+
+def resample_particles(particles, logw, rng, scheme="systematic", n_out=None):
+    """Resample ``(particles, logw)``; returns ``(new particles, uniform log-weights)``.
+
+    The log-weights may be unnormalised.  ``scheme`` is one of
+    :data:`RESAMPLING_SCHEMES`.  The returned log-weights are ``-log(n_out)``.
+    """
+    if scheme not in _RESAMPLERS:
+        raise ValueError(f"scheme must be one of {RESAMPLING_SCHEMES}, got {scheme!r}")
+    X = _as_particles(particles)
+    if X.shape[0] == 0:
+        raise ValueError("particles must not be empty")
+    lw = _as_logw(logw, X.shape[0])
+    w = np.exp(lw - lw.max())
+    idx = _RESAMPLERS[scheme](w, rng, n_out)
+    M = idx.shape[0]
+    return np.ascontiguousarray(X[idx]), np.full(M, -math.log(M) if M else 0.0)
+
+
+# --------------------------------------------------------------------------
+# measurement log-likelihoods on particle batches
+# --------------------------------------------------------------------------
+def _inv_logdet(R, name="R"):
+    R = as_covariance(R, name, strict=True)
+    L = np.linalg.cholesky(R)
+    Rinv = np.linalg.inv(R)
+    Rinv = 0.5 * (Rinv + Rinv.T)
+    return np.ascontiguousarray(Rinv), float(2.0 * np.sum(np.log(np.diag(L))))
+
+
+@nb.njit(cache=True, inline="always")
+def _ll_position_one(particles, i, z, Rinv, c):
+    d = z.shape[0]
+    q = 0.0
+    for a in range(d):
+        ra = z[a] - particles[i, a]
+        s = 0.0
+        for b in range(d):
+            s += Rinv[a, b] * (z[b] - particles[i, b])
+        q += ra * s
+    return c - 0.5 * q
+
+
+@nb.njit(cache=True, inline="always")
+def _ll_range_bearing_one(particles, i, z, Rinv, c, sx, sy):
+    dx = particles[i, 0] - sx
+    dy = particles[i, 1] - sy
+    r0 = z[0] - math.sqrt(dx * dx + dy * dy)
+    r1 = z[1] - math.atan2(dy, dx)
+    if not (-math.pi < r1 <= math.pi):
+        r1 = math.pi - ((math.pi - r1) % _TWO_PI)
+    return c - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
+                      + Rinv[1, 1] * r1 * r1)
+
+
+@nb.njit(cache=True)
+def _ll_serial(particles, z, Rinv, c, model, sx, sy, out):
+    N = particles.shape[0]
+    if model == 1:
+        for i in range(N):
+            out[i] += _ll_range_bearing_one(particles, i, z, Rinv, c, sx, sy)
+    else:
+        for i in range(N):
+            out[i] += _ll_position_one(particles, i, z, Rinv, c)
+
+
+@nb.njit(cache=True, parallel=True)
+def _ll_parallel(particles, z, Rinv, c, model, sx, sy, out):
+    N = particles.shape[0]
+    if model == 1:
+        for i in nb.prange(N):
+            out[i] += _ll_range_bearing_one(particles, i, z, Rinv, c, sx, sy)
+    else:
+        for i in nb.prange(N):
+            out[i] += _ll_position_one(particles, i, z, Rinv, c)
+
+
+@nb.njit(cache=True)
+def _add_loglik(particles, z, Rinv, logdetR, model, sx, sy, out):
+    d = z.shape[0]
+    c = -0.5 * (d * 1.8378770664093453 + logdetR)
+    if particles.shape[0] >= _PARALLEL_MIN:
+        _ll_parallel(particles, z, Rinv, c, model, sx, sy, out)
+    else:
+        _ll_serial(particles, z, Rinv, c, model, sx, sy, out)
+
+
+@nb.njit(cache=True)
+def loglik_gaussian_position_kernel(particles, z, Rinv, logdetR, out):
+    """``out[i] += log N(z; particles[i, :d], R)`` (``d = len(z)``), given
+    ``Rinv = R^-1`` and ``logdetR = log|R|``."""
+    _add_loglik(particles, z, Rinv, logdetR, 0, 0.0, 0.0, out)
+
+
+@nb.njit(cache=True)
+def loglik_range_bearing_kernel(particles, z, Rinv, logdetR, sx, sy, out):
+    """``out[i] += log N(z - h(x_i); 0, R)``, ``h = (range, bearing)`` from the
+    sensor at ``(sx, sy)``, bearing innovation wrapped to (-pi, pi]."""
+    _add_loglik(particles, z, Rinv, logdetR, 1, sx, sy, out)
+
+
+def loglik_gaussian_position(particles, z, R):
+    """Log-likelihoods ``log N(z; x_i[:d], R)`` of each particle, ``(N,)``.
+
+    The first ``d = len(z)`` state components are the measured position.
+    """
+    X = _as_particles(particles)
+    z = as_vector(z, "z")
+    d = z.shape[0]
+    if d == 0 or d > X.shape[1]:
+        raise ValueError(f"z must have 1..{X.shape[1]} components, got {d}")
+    Rinv, logdet = _inv_logdet(as_square_matrix(R, "R", d))
+    out = np.zeros(X.shape[0])
+    loglik_gaussian_position_kernel(X, z, Rinv, logdet, out)
+    return out
+
+
+def _sensor(sensor):
+    s = as_vector(sensor, "sensor", 2)
+    return float(s[0]), float(s[1])
+
+
+def loglik_range_bearing(particles, z, R, sensor=(0.0, 0.0)):
+    """Log-likelihoods of a range-bearing measurement ``z = (r, theta)``.
+
+    ``particles`` have ``[x, y, ...]`` first; bearing ``atan2(y - sy, x - sx)``;
+    the bearing innovation is wrapped to (-pi, pi].  Returns ``(N,)``.
+    """
+    X = _as_particles(particles)
+    if X.shape[1] < 2:
+        raise ValueError(f"particles must have at least 2 columns, got {X.shape}")
+    z = as_vector(z, "z", 2)
+    Rinv, logdet = _inv_logdet(as_square_matrix(R, "R", 2))
+    sx, sy = _sensor(sensor)
+    out = np.zeros(X.shape[0])
+    loglik_range_bearing_kernel(X, z, Rinv, logdet, sx, sy, out)
+    return out
+
+
+# --------------------------------------------------------------------------
+# fused bootstrap step
+# --------------------------------------------------------------------------
+@nb.njit(cache=True)
+def bootstrap_step_kernel(particles, logw, F, L, z, Rinv, logdetR, model, sx, sy,
+                          rng, ess_threshold, scratch):
+    """One bootstrap-PF step in place: propagate, weight, normalise, resample.
+
+    ``particles`` ``(N, n)`` and ``logw`` ``(N,)`` are overwritten; ``scratch``
+    is an ``(N, n)`` work array.  ``z`` of length 0 means an empty scan (no
+    weighting).  ``model``: :data:`MODEL_POSITION` or
+    :data:`MODEL_RANGE_BEARING`.  Systematic resampling happens when
+    ``ess_threshold >= 1`` or ``ESS < ess_threshold * N``.
+
+    Returns ``(log_evidence, ess_before_resampling, resampled)`` where
+    ``log_evidence = log sum_i w_i p(z | x_i)`` with the input weights
+    normalised (0 for an empty scan).
+    """
+    N, n = particles.shape
+    k = L.shape[1]
+    # predict (serial: fixed order of random draws)
+    w = np.empty(max(k, 1))
+    tmp = np.empty(n)
+    for i in range(N):
+        for c in range(k):
+            w[c] = rng.standard_normal()
+        for a in range(n):
+            s = 0.0
+            for b in range(n):
+                s += F[a, b] * particles[i, b]
+            tmp[a] = s
+        for a in range(n):
+            s = tmp[a]
+            for c in range(k):
+                s += L[a, c] * w[c]
+            particles[i, a] = s
+    # normalise the prior weights
+    lse0 = logsumexp_kernel(logw)
+    for i in range(N):
+        logw[i] -= lse0
+    log_ev = 0.0
+    if z.shape[0] > 0:
+        _add_loglik(particles, z, Rinv, logdetR, model, sx, sy, logw)
+        log_ev = logsumexp_kernel(logw)
+        if log_ev == -np.inf:
+            # every particle has zero likelihood: keep the prior weights
+            for i in range(N):
+                logw[i] = -math.log(N)
+        else:
+            for i in range(N):
+                logw[i] -= log_ev
+    # ESS from normalised log-weights
+    s2 = 0.0
+    for i in range(N):
+        e = math.exp(logw[i])
+        s2 += e * e
+    ess = 1.0 / s2
+    resampled = False
+    if ess_threshold >= 1.0 or ess < ess_threshold * N:
+        resampled = True
+        # systematic resampling using normalised weights in place
+        u0 = rng.random()
+        j = 0
+        c = math.exp(logw[0])
+        for i in range(N):
+            pos = (u0 + i) / N
+            while pos >= c and j < N - 1:
+                j += 1
+                c += math.exp(logw[j])
+            for a in range(n):
+                scratch[i, a] = particles[j, a]
+        lu = -math.log(N)
+        for i in range(N):
+            logw[i] = lu
+            for a in range(n):
+                particles[i, a] = scratch[i, a]
+    return log_ev, ess, resampled
+
+
+class BootstrapStep(NamedTuple):
+    """Result of :func:`bootstrap_step` (particles/logw are updated in place)."""
+
+    particles: np.ndarray
+    logw: np.ndarray
+    log_evidence: float
+    ess: float
+    resampled: bool
+
+
+def bootstrap_step(particles, logw, F, L, z, R, rng, model="range_bearing", *,
+                   sensor=(0.0, 0.0), ess_threshold=1.0, scratch=None):
+    """Fused predict-weight-resample bootstrap particle-filter step.
+
+    ``particles`` ``(N, n)`` (C-contiguous float64, updated in place when it
+    already is one) and log-weights ``logw`` ``(N,)``; ``F`` ``(n, n)``;
+    ``L`` the ``(n, k)`` process-noise factor (``Q = L L^T``, see
+    :func:`noise_factor`); ``z`` the measurement (``(2,)`` range-bearing for
+    ``model="range_bearing"``; ``(d,)`` position for ``model="position"``;
+    empty for an empty scan); ``R`` its covariance.  Resamples
+    systematically when ``ESS < ess_threshold * N`` (always for the default
+    ``ess_threshold=1``).  Returns a :class:`BootstrapStep`.
+    """
+    rng = as_rng(rng)
+    if model not in _MODELS:
+        raise ValueError(f"model must be one of {tuple(_MODELS)}, got {model!r}")
+    code = _MODELS[model]
+    X = _as_particles(particles)
+    N, n = X.shape
+    if N == 0:
+        raise ValueError("particles must not be empty")
+    lw = _as_logw(logw, N).copy() if not (isinstance(logw, np.ndarray) and logw.dtype == np.float64
+                                           and logw.flags.c_contiguous) else _as_logw(logw, N)
+    F = as_square_matrix(F, "F", n)
+    L = as_matrix(L, "L", (n, None))
+    z = as_vector(z, "z") if not (isinstance(z, (list, tuple)) and len(z) == 0) else np.zeros(0)
+    ess_threshold = as_scalar(ess_threshold, "ess_threshold")
+    if not 0.0 <= ess_threshold <= 1.0:
+        raise ValueError(f"ess_threshold must be in [0, 1], got {ess_threshold}")
+    if z.shape[0] == 0:
+        Rinv, logdet = np.zeros((0, 0)), 0.0
+    else:
+        if code == MODEL_RANGE_BEARING:
+            if z.shape[0] != 2:
+                raise ValueError(f"z must have shape (2,) for model='range_bearing', got {z.shape}")
+            if n < 2:
+                raise ValueError("particles must have at least 2 columns")
+        elif z.shape[0] > n:
+            raise ValueError(f"z must have at most {n} components, got {z.shape[0]}")
+        Rinv, logdet = _inv_logdet(as_square_matrix(R, "R", z.shape[0]))
+    sx, sy = _sensor(sensor)
+    if scratch is None:
+        scratch = np.empty_like(X)
+    elif not (isinstance(scratch, np.ndarray) and scratch.dtype == np.float64
+              and scratch.flags.c_contiguous and scratch.shape == X.shape):
+        raise ValueError(f"scratch must be a C-contiguous float64 array of shape {X.shape}")
+    log_ev, ess, res = bootstrap_step_kernel(X, lw, F, L, z, Rinv, logdet, code, sx, sy,
+                                             rng, ess_threshold, scratch)
+    return BootstrapStep(X, lw, float(log_ev), float(ess), bool(res))
