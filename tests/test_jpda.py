@@ -164,25 +164,43 @@ def test_single_track_reduces_to_pdaf():
 
 
 def test_single_track_matches_foundation_pda_betas():
-    pda = pytest.importorskip("trackcore.association.pda")
-    import inspect
+    from trackcore.association import pda_betas
     rng = np.random.default_rng(5)
-    L = rng.uniform(1e-3, 0.1, 4)
-    pd, lam = 0.9, 2e-3
-    beta, _ = jpda_marginals(L[:, None], np.ones((4, 1), bool), pd, lam)
-    params = inspect.signature(pda.pda_betas).parameters
-    kwargs = {}
-    if "pg" in params:
-        kwargs["pg"] = 1.0
-    out = pda.pda_betas(L, pd, lam, **kwargs) if "lik" in params or len(params) >= 3 else None
-    if out is None:
-        pytest.skip("pda_betas signature not recognised")
-    out = np.asarray(out, float).ravel()
-    # foundation convention: either [beta_0, beta_1..m] or [beta_1..m, beta_0]
-    ours = beta[:, 0]
-    if not (np.allclose(out, ours, atol=1e-12)
-            or np.allclose(out, np.r_[ours[1:], ours[0]], atol=1e-12)):
-        raise AssertionError(f"pda_betas {out} != single-track JPDA {ours}")
+    for m in range(0, 5):
+        L = rng.uniform(1e-3, 0.1, m)
+        pd, lam = 0.9, 2e-3
+        beta, _ = jpda_marginals(L[:, None], np.ones((m, 1), bool), pd, lam)
+        beta0, betas = pda_betas(L, pd, 1.0, lam)
+        assert beta[0, 0] == pytest.approx(beta0, abs=1e-12)
+        np.testing.assert_allclose(beta[1:, 0], betas, atol=1e-12)
+
+
+def test_jpda_betas_in_pda_update_give_symmetric_psd_spread():
+    """Eq (9) corrected: P = b0 P + (1 - b0) Pc + W (sum b nu nu^T - nu nu^T) W^T
+    is symmetric PSD, and the spread term itself is PSD."""
+    from trackcore.association import pda_update
+    from trackcore.models import cv_process_noise, cv_transition, position_matrix
+    rng = np.random.default_rng(12)
+    H = position_matrix(2, 4)
+    R = np.eye(2)
+    P = cv_process_noise(1.0, 0.3, 2) * 10 + np.eye(4)
+    x = np.array([10.0, 20.0, 1.0, -1.0])
+    for _ in range(20):
+        m = int(rng.integers(0, 5))
+        z = H @ x + rng.normal(0, 2.0, (m, 2))
+        S = H @ P @ H.T + R
+        nu = z - H @ x
+        lik = np.exp(-0.5 * np.einsum("ij,jk,ik->i", nu, np.linalg.inv(S), nu)) / (
+            2 * np.pi * np.sqrt(np.linalg.det(S)))
+        beta, _ = jpda_marginals(lik[:, None], np.ones((m, 1), bool), 0.9, 1e-3)
+        up = pda_update(x, P, z, H @ x, H, R, beta[1:, 0], beta[0, 0])
+        assert np.allclose(up.P, up.P.T, atol=1e-12)
+        assert np.linalg.eigvalsh(up.P).min() > 0
+        spread = (beta[1:, 0, None, None] * nu[:, :, None] * nu[:, None, :]).sum(0) \
+            - np.outer(up.innovation_combined, up.innovation_combined)
+        assert np.linalg.eigvalsh(spread).min() > -1e-10
+        x, P = cv_transition(1.0) @ up.x, cv_transition(1.0) @ up.P @ cv_transition(1.0).T + \
+            cv_process_noise(1.0, 0.3)
 
 
 def test_m_zero_gives_beta0_one():
