@@ -1,0 +1,254 @@
+"""Wald's sequential probability ratio test (SPRT) for two simple hypotheses.
+
+The test statistic is the log-likelihood ratio ``Lambda(k) = ln p(Z^k|H1) /
+p(Z^k|H0)`` accumulated scan by scan (Jeong & Hong 1996, eqs 2-3).  The test
+stops at the first scan ``k`` (1-based) with ``Lambda(k) >= gamma1`` (decide
+H1) or ``Lambda(k) <= gamma0`` (decide H0); Wald's thresholds (eq 4) are
+
+    gamma1 = ln((1 - P_M) / P_F),   gamma0 = ln(P_M / (1 - P_F)),
+
+with ``P_F = P(decide H1 | H0)`` and ``P_M = P(decide H0 | H1)``.
+
+Decisions are coded ``0`` (H0), ``1`` (H1) and ``-1`` (undecided: no crossing
+within the data); the decision scan of an undecided test is ``0``.
+
+Wald's approximations (neglecting the overshoot of the thresholds) give the
+error probabilities actually achieved by given thresholds, the operating
+characteristic (OC) and the average sample number (ASN).
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numba as nb
+import numpy as np
+
+from ..core.validation import as_array, as_probability, as_scalar
+
+__all__ = [
+    "SPRT_H0",
+    "SPRT_H1",
+    "SPRT_UNDECIDED",
+    "SprtResult",
+    "SprtState",
+    "sprt_thresholds",
+    "sprt_symmetric_error",
+    "sprt_step",
+    "sprt_test",
+    "sprt_decide",
+    "sprt_decide_kernel",
+    "wald_error_probabilities",
+    "wald_oc",
+    "wald_asn",
+    "wald_gaussian_oc_asn",
+]
+
+SPRT_H0 = 0
+SPRT_H1 = 1
+SPRT_UNDECIDED = -1
+
+
+class SprtResult(NamedTuple):
+    """Outcome of a sequential test over a sequence of scans."""
+    decision: int       # 0 = H0, 1 = H1, -1 = undecided
+    scan: int           # 1-based scan of the decision (0 if undecided)
+    llr: np.ndarray     # cumulative log-likelihood ratio Lambda(k), k = 1..K
+
+
+class SprtState(NamedTuple):
+    """State of an online SPRT after ``k`` scans (immutable; see :func:`sprt_step`)."""
+    llr: float = 0.0             # Lambda(k); Lambda(0) = 0 (equal priors)
+    k: int = 0                   # scans taken so far
+    decision: int = SPRT_UNDECIDED
+    scan: int = 0                # scan of the decision (0 while undecided)
+
+
+def _check_thresholds(gamma0, gamma1):
+    g0 = as_scalar(gamma0, "gamma0")
+    g1 = as_scalar(gamma1, "gamma1")
+    if not g0 < 0.0:
+        raise ValueError(f"gamma0 must be < 0, got {g0}")
+    if not g1 > 0.0:
+        raise ValueError(f"gamma1 must be > 0, got {g1}")
+    return g0, g1
+
+
+def sprt_thresholds(p_miss, p_false):
+    """Wald's thresholds ``(gamma0, gamma1)`` of eq (4).
+
+    ``p_miss = P_M = P(decide H0 | H1)``, ``p_false = P_F = P(decide H1 | H0)``,
+    both in (0, 1) with ``P_M + P_F < 1`` (otherwise ``gamma0 >= gamma1`` and
+    the test is meaningless).  Returns ``(ln(P_M/(1-P_F)), ln((1-P_M)/P_F))``.
+    """
+    pm = as_probability(p_miss, "p_miss", open_low=True, open_high=True)
+    pf = as_probability(p_false, "p_false", open_low=True, open_high=True)
+    if not pm + pf < 1.0:
+        raise ValueError(f"p_miss + p_false must be < 1, got {pm} + {pf}")
+    gamma0 = math.log(pm) - math.log1p(-pf)
+    gamma1 = math.log1p(-pm) - math.log(pf)
+    return gamma0, gamma1
+
+
+def sprt_symmetric_error(gamma):
+    """Error probability ``P_e`` with ``P_M = P_F = P_e`` whose thresholds are ``-+gamma``.
+
+    Inverts ``gamma = ln((1 - P_e)/P_e)``: ``P_e = 1 / (1 + e^gamma)``.
+    """
+    g = as_scalar(gamma, "gamma")
+    if not g > 0.0:
+        raise ValueError(f"gamma must be > 0, got {g}")
+    return 1.0 / (1.0 + math.exp(g))
+
+
+def sprt_step(state, increment, gamma0, gamma1):
+    """Add one scan's LLR increment to an online test; returns the new :class:`SprtState`.
+
+    Once decided, the decision and its scan stay fixed while ``llr`` and ``k``
+    keep accumulating (the book keeps computing Lambda after the decision).
+    """
+    if not isinstance(state, SprtState):
+        raise TypeError(f"state must be an SprtState, got {type(state).__name__}")
+    inc = as_scalar(increment, "increment")
+    g0, g1 = _check_thresholds(gamma0, gamma1)
+    llr = state.llr + inc
+    k = state.k + 1
+    decision, scan = state.decision, state.scan
+    if decision == SPRT_UNDECIDED:
+        if llr >= g1:
+            decision, scan = SPRT_H1, k
+        elif llr <= g0:
+            decision, scan = SPRT_H0, k
+    return SprtState(llr, k, decision, scan)
+
+
+@nb.njit(cache=True)
+def sprt_decide_kernel(llr, gamma0, gamma1, decision, scan):
+    """First crossing of each cumulative LLR path ``llr`` (N, K).
+
+    Writes ``decision[i]`` (0 H0, 1 H1, -1 undecided) and ``scan[i]`` (1-based,
+    0 when undecided).
+    """
+    N, K = llr.shape
+    for i in range(N):
+        decision[i] = -1
+        scan[i] = 0
+        for k in range(K):
+            v = llr[i, k]
+            if v >= gamma1:
+                decision[i] = 1
+                scan[i] = k + 1
+                break
+            if v <= gamma0:
+                decision[i] = 0
+                scan[i] = k + 1
+                break
+
+
+def sprt_decide(llr, gamma0, gamma1):
+    """Decisions and decision scans of cumulative LLR paths.
+
+    ``llr`` is ``Lambda(k)`` for ``k = 1..K``: shape ``(K,)`` for one test or
+    ``(N, K)`` for ``N`` tests (K = 0 is allowed: undecided).  Returns
+    ``(decision, scan)`` as ints for a 1-D input, int arrays ``(N,)`` otherwise.
+    """
+    L = as_array(llr, "llr", ndim=(1, 2))
+    g0, g1 = _check_thresholds(gamma0, gamma1)
+    single = L.ndim == 1
+    L2 = L.reshape(1, -1) if single else L
+    decision = np.empty(L2.shape[0], dtype=np.int64)
+    scan = np.empty(L2.shape[0], dtype=np.int64)
+    sprt_decide_kernel(L2, g0, g1, decision, scan)
+    if single:
+        return int(decision[0]), int(scan[0])
+    return decision, scan
+
+
+def sprt_test(increments, gamma0, gamma1):
+    """Run the SPRT on a sequence of per-scan LLR increments (eq 3).
+
+    ``increments[k-1] = ln p(z(k)|Z^{k-1},H1) - ln p(z(k)|Z^{k-1},H0)``; an
+    empty sequence is valid (undecided).  Returns :class:`SprtResult` with the
+    whole cumulative path (computed past the decision).
+    """
+    inc = as_array(increments, "increments", ndim=1)
+    g0, g1 = _check_thresholds(gamma0, gamma1)
+    llr = np.cumsum(inc)
+    d, k = sprt_decide(llr, g0, g1) if llr.size else (SPRT_UNDECIDED, 0)
+    return SprtResult(int(d), int(k), llr)
+
+
+def wald_error_probabilities(gamma0, gamma1):
+    """Error probabilities ``(P_F, P_M)`` implied by thresholds (Wald, no overshoot).
+
+    With ``A = e^gamma1``, ``B = e^gamma0``: ``P_F = (1 - B)/(A - B)`` and
+    ``P_M = B (A - 1)/(A - B)``; the exact inverse of :func:`sprt_thresholds`.
+    """
+    g0, g1 = _check_thresholds(gamma0, gamma1)
+    # divide numerator and denominator by A = e^gamma1 (no overflow for large gamma1)
+    ia = math.exp(-g1)
+    b = math.exp(g0)
+    den = 1.0 - b * ia
+    pf = ia * (1.0 - b) / den
+    pm = b * (1.0 - ia) / den
+    return pf, pm
+
+
+def wald_oc(h, gamma0, gamma1):
+    """Wald's operating characteristic: probability of deciding H0.
+
+    ``h != 0`` solves ``E[exp(h lambda)] = 1`` for the LLR increment ``lambda``
+    under the true distribution (``h = 1`` under H0, ``h = -1`` under H1).
+    ``L(h) = (e^{h gamma1} - 1)/(e^{h gamma1} - e^{h gamma0})``, and
+    ``L(0) = gamma1/(gamma1 - gamma0)``.  ``h`` may be an array.
+    """
+    g0, g1 = _check_thresholds(gamma0, gamma1)
+    H = as_array(h, "h")
+    out = np.empty_like(H)
+    flat, res = H.ravel(), out.ravel()
+    for i, hv in enumerate(flat):
+        if abs(hv) < 1e-10:
+            res[i] = g1 / (g1 - g0)
+            continue
+        a, b = hv * g1, hv * g0
+        # (e^a - 1)/(e^a - e^b), stable for large |a|, |b|
+        m = max(a, b)
+        res[i] = (math.exp(a - m) - math.exp(-m)) / (math.exp(a - m) - math.exp(b - m))
+    return float(out) if out.ndim == 0 else out
+
+
+def wald_asn(mean_increment, gamma0, gamma1, p_decide_h0):
+    """Wald's average sample number ``E[k] = (L gamma0 + (1 - L) gamma1) / E[lambda]``.
+
+    ``L = p_decide_h0``; under H0 with ``P_F`` this is the spec's
+    ``((1 - P_F) gamma0 + P_F gamma1) / E[lambda | H0]``.  ``mean_increment``
+    must be non-zero (use :func:`wald_gaussian_oc_asn` for the zero-drift limit).
+    """
+    mu = as_scalar(mean_increment, "mean_increment")
+    if mu == 0.0:
+        raise ValueError("mean_increment must be non-zero")
+    g0, g1 = _check_thresholds(gamma0, gamma1)
+    L = as_probability(p_decide_h0, "p_decide_h0")
+    asn = (L * g0 + (1.0 - L) * g1) / mu
+    if asn < 0.0:
+        raise ValueError("mean_increment has the wrong sign for p_decide_h0: the ASN "
+                         f"approximation came out negative ({asn:.3g})")
+    return asn
+
+
+def wald_gaussian_oc_asn(mean, var, gamma0, gamma1):
+    """OC and ASN for i.i.d. Gaussian increments ``N(mean, var)`` (Wald).
+
+    ``h = -2 mean / var``; returns ``(P(decide H0), ASN)``.  At ``mean = 0`` the
+    ASN is ``-gamma0 gamma1 / var``.
+    """
+    mu = as_scalar(mean, "mean")
+    v = as_scalar(var, "var")
+    if not v > 0.0:
+        raise ValueError(f"var must be > 0, got {v}")
+    g0, g1 = _check_thresholds(gamma0, gamma1)
+    h = -2.0 * mu / v
+    L = wald_oc(h, g0, g1)
+    if abs(h) < 1e-10:
+        return L, -g0 * g1 / v
+    return L, (L * g0 + (1.0 - L) * g1) / mu
