@@ -1,0 +1,504 @@
+"""Highest Probability Data Association (HPDA): amplitude-rank probabilities,
+association probabilities and track existence (Kim & Song 2007, eqs 6-19).
+
+Model.  Validated clutter amplitudes are ``tau + Exp(1)`` and detected target
+amplitudes ``tau + Exp(1 + rho)``; ``P_D = exp(-tau c)`` with
+``c = 1 / (1 + rho)``.  The number of validated false measurements in the gate
+is Poisson with mean ``clutter_mean = lambda V_G``; the target falls in the
+gate with probability ``P_G``.  With ``m`` validated measurements ranked by
+amplitude (``l = 1`` strongest) the probability that the target is the
+``l``-th strongest, given that it was detected and there are ``m - 1`` clutter
+returns, is (spec section 3.1)
+
+    q(l, m) = c C(m-1, l-1) B(l-1+c, m-l+1)
+            = c Gamma(m) Gamma(l-1+c) / (Gamma(l) Gamma(m+c)),
+
+so ``q(1, m) = Pbar_A(m)`` and ``q(l, m) = gamma(l) Pbar_A(m)`` for every
+``1 <= l <= m`` (errata E10/E11: no special ``l = m`` branch).  The joint
+probabilities are
+
+    P(M_T^l, m) = P_D P_G mu_F(m-1) q(l, m)                       (12)
+    P(m)        = (1 - P_D P_G) mu_F(m) + P_D P_G mu_F(m-1)       (11)
+    P(M_F^l, m) = P(m) - P(M_T^l, m)                              (10)
+
+Everything is evaluated with log-gamma (E12: the printed alternating sum for
+``Pbar_A`` cancels catastrophically; :func:`pa_bar_alternating` keeps the
+printed form so the book can show it failing).
+
+Densities (spec section 4.1, explicit here): at the *track* level (14), (19)
+the target density is ``f_T(z) = N(z; z_hat, S) / P_G`` (gate-truncated) and
+clutter is ``1 / V_G``; at the *particle* level (13) the target density is
+``N(z; h(x_i), R)``.  ``clutter_density`` (lambda) is in the units of the
+measurement space of ``N`` (per m rad for range-bearing).
+"""
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from ..filters.particle import loglik_range_bearing_kernel
+from ..core.validation import (as_array, as_count, as_rng, as_nonnegative, as_positive,
+                               as_probability, as_scalar)
+
+__all__ = [
+    "hpda_rank_probabilities",
+    "hpda_false_rank_probabilities",
+    "hpda_log_rank_probabilities",
+    "hpda_measurement_count_probability",
+    "hpda_conditional_rank_probabilities",
+    "hpda_rank_probabilities_printed",
+    "hpda_rank_probabilities_kernel",
+    "hpda_conditional_rank_kernel",
+    "rank_probability_q",
+    "pa_bar",
+    "pa_bar_alternating",
+    "rank_gamma",
+    "hpda_betas",
+    "hpda_select",
+    "hpda_mixture_loglik",
+    "hpda_mixture_loglik_kernel",
+    "existence_predict",
+    "hpda_existence_delta",
+    "hpda_existence_delta_kernel",
+    "existence_update",
+    "simulate_hpda_ranks",
+]
+
+
+# --------------------------------------------------------------------------
+# validation helpers
+# --------------------------------------------------------------------------
+def _common(m, snr, tau, pg, clutter_mean):
+    m = as_count(m, "m")
+    snr = as_nonnegative(snr, "snr")
+    tau = as_nonnegative(tau, "tau")
+    pg = as_probability(pg, "pg")
+    lam = as_nonnegative(clutter_mean, "clutter_mean")
+    c = 1.0 / (1.0 + snr)
+    pd = math.exp(-tau * c)
+    return m, c, pd, pg, lam
+
+
+# --------------------------------------------------------------------------
+# kernels (numba; assume valid input)
+# --------------------------------------------------------------------------
+@nb.njit(cache=True)
+def _log_poisson(k, mean):
+    """log Poisson(k; mean); -inf for k < 0; mean = 0 handled exactly."""
+    if k < 0:
+        return -np.inf
+    if mean == 0.0:
+        return 0.0 if k == 0 else -np.inf
+    return k * math.log(mean) - mean - math.lgamma(k + 1.0)
+
+
+@nb.njit(cache=True)
+def _log_q(l, m, c):
+    """log q(l, m) = log c + lgamma(m) + lgamma(l-1+c) - lgamma(l) - lgamma(m+c)."""
+    return (math.log(c) + math.lgamma(m) + math.lgamma(l - 1.0 + c)
+            - math.lgamma(l) - math.lgamma(m + c))
+
+
+@nb.njit(cache=True)
+def hpda_rank_probabilities_kernel(m, c, pd, pg, clutter_mean, log_pt, log_pf):
+    """Log joint probabilities ``log P(M_T^l, m)`` and ``log P(M_F^l, m)``,
+    ``l = 1..m``, into ``log_pt``, ``log_pf`` (length >= m); returns ``log P(m)``.
+
+    ``c = 1/(1+snr)``; ``pd = exp(-tau c)``.
+    """
+    pdpg = pd * pg
+    lmu_m = _log_poisson(m, clutter_mean)
+    lmu_m1 = _log_poisson(m - 1, clutter_mean)
+    # log P(m) = log[(1 - pdpg) mu(m) + pdpg mu(m-1)]
+    a = math.log(1.0 - pdpg) + lmu_m if pdpg < 1.0 else -np.inf
+    b = math.log(pdpg) + lmu_m1 if pdpg > 0.0 else -np.inf
+    hi = max(a, b)
+    if hi == -np.inf:
+        log_pm = -np.inf
+    else:
+        log_pm = hi + math.log(math.exp(a - hi) + math.exp(b - hi))
+    for l in range(1, m + 1):
+        lq = _log_q(l, m, c)
+        q = math.exp(lq)
+        log_pt[l - 1] = b + lq
+        # P_F = (1-pdpg) mu(m) + pdpg mu(m-1) (1 - q); 1 - q >= 0 exactly at q = 1
+        one_m_q = -math.expm1(lq)
+        bf = b + math.log(one_m_q) if one_m_q > 0.0 else -np.inf
+        hi2 = max(a, bf)
+        if hi2 == -np.inf:
+            log_pf[l - 1] = -np.inf
+        else:
+            log_pf[l - 1] = hi2 + math.log(math.exp(a - hi2) + math.exp(bf - hi2))
+        if q < 0.0:  # pragma: no cover - q is a probability
+            log_pt[l - 1] = -np.inf
+    return log_pm
+
+
+@nb.njit(cache=True)
+def hpda_conditional_rank_kernel(m, c, pdpg, clutter_mean, pt, pf):
+    """Conditional probabilities ``P(M_T^l | m)`` and ``P(M_F^l | m)`` into
+    ``pt``, ``pf`` (length >= m), in the form that never under- or overflows:
+    with ``r = m / clutter_mean = mu_F(m-1)/mu_F(m)``,
+
+        P(M_T^l | m) = pdpg m q_l / [(1 - pdpg) clutter_mean + pdpg m].
+
+    Returns False when ``P(m) = 0`` (impossible scan: ``m >= 1`` with no
+    clutter and no detection possible, or ``m >= 2`` without clutter).
+    """
+    if m == 0:
+        return True
+    if clutter_mean == 0.0 and m >= 2:
+        return False
+    den = (1.0 - pdpg) * clutter_mean + pdpg * m
+    if den <= 0.0:
+        return False
+    for l in range(1, m + 1):
+        q = math.exp(_log_q(l, m, c))
+        pt[l - 1] = pdpg * m * q / den
+        pf[l - 1] = ((1.0 - pdpg) * clutter_mean + pdpg * m * (1.0 - q)) / den
+    return True
+
+
+@nb.njit(cache=True)
+def hpda_existence_delta_kernel(m, q_s, pd, pg, clutter_density, gate_volume, normal_density):
+    """delta_k of eq (19): ``pd pg - m/(lambda V_G) pd pg (1 - q_s)
+    - m/lambda pd N(z^s; z_hat, S) q_s``; ``pd pg`` when ``m = 0``."""
+    pdpg = pd * pg
+    if m == 0:
+        return pdpg
+    return (pdpg - m / (clutter_density * gate_volume) * pdpg * (1.0 - q_s)
+            - m / clutter_density * pd * normal_density * q_s)
+
+
+@nb.njit(cache=True)
+def _mixture_kernel(loglik, log_a, log_b, out):
+    """out[i] = log(exp(loglik[i] + log_a) + exp(log_b))."""
+    for i in range(loglik.shape[0]):
+        u = loglik[i] + log_a
+        hi = max(u, log_b)
+        if hi == -np.inf:
+            out[i] = -np.inf
+        else:
+            out[i] = hi + math.log(math.exp(u - hi) + math.exp(log_b - hi))
+
+
+@nb.njit(cache=True)
+def hpda_mixture_loglik_kernel(particles, z, Rinv, logdetR, sx, sy, log_pt, log_pf_vg, out):
+    """Eq (13) per particle, up to the constant ``-log P(m)``:
+    ``out[i] = log[N(z; h(x_i), R) P_T + P_F / V_G]`` with ``log_pt = log P_T``
+    and ``log_pf_vg = log(P_F / V_G)`` (conditional or joint, as long as both
+    use the same normaliser).  ``out`` is overwritten."""
+    for i in range(out.shape[0]):
+        out[i] = 0.0
+    loglik_range_bearing_kernel(particles, z, Rinv, logdetR, sx, sy, out)
+    _mixture_kernel(out, log_pt, log_pf_vg, out)
+
+
+# --------------------------------------------------------------------------
+# public API: rank probabilities
+# --------------------------------------------------------------------------
+def hpda_log_rank_probabilities(m, snr, tau, pg, clutter_mean):
+    """``(log P(M_T^l, m), log P(M_F^l, m), log P(m))`` for ``l = 1..m``.
+
+    Stable for any ``m`` (log-gamma throughout); use this when ``mu_F``
+    underflows (e.g. ``m = 500`` with ``clutter_mean = 1``).
+    """
+    m, c, pd, pg, lam = _common(m, snr, tau, pg, clutter_mean)
+    lpt = np.empty(m)
+    lpf = np.empty(m)
+    lpm = hpda_rank_probabilities_kernel(m, c, pd, pg, lam, lpt, lpf)
+    return lpt, lpf, float(lpm)
+
+
+def hpda_rank_probabilities(m, snr, tau, pg, clutter_mean):
+    """Joint probabilities ``P(M_T^l, m)``, ``l = 1..m`` (eq 12, corrected by E10/E11).
+
+    ``snr`` is the linear mean SNR rho, ``tau`` the amplitude threshold
+    (``P_D = exp(-tau/(1+snr))``), ``pg`` the gate probability and
+    ``clutter_mean = lambda V_G`` the Poisson mean of validated false
+    measurements in the gate.  Returns an array of length ``m`` (empty for
+    ``m = 0``).  Values below ~1e-308 underflow to 0; see
+    :func:`hpda_log_rank_probabilities` for the logarithms.
+    """
+    lpt, _, _ = hpda_log_rank_probabilities(m, snr, tau, pg, clutter_mean)
+    return np.exp(lpt)
+
+
+def hpda_false_rank_probabilities(m, snr, tau, pg, clutter_mean):
+    """Joint probabilities ``P(M_F^l, m)``, ``l = 1..m`` (eq 10)."""
+    _, lpf, _ = hpda_log_rank_probabilities(m, snr, tau, pg, clutter_mean)
+    return np.exp(lpf)
+
+
+def hpda_measurement_count_probability(m, snr, tau, pg, clutter_mean):
+    """``P(m) = (1 - P_D P_G) mu_F(m) + P_D P_G mu_F(m-1)`` (eq 11)."""
+    m, c, pd, pg, lam = _common(m, snr, tau, pg, clutter_mean)
+    lpm = hpda_rank_probabilities_kernel(m, c, pd, pg, lam, np.empty(m), np.empty(m))
+    return float(math.exp(lpm))
+
+
+def hpda_conditional_rank_probabilities(m, snr, tau, pg, clutter_mean):
+    """``(P(M_T^l | m), P(M_F^l | m))``, ``l = 1..m``: the joint probabilities
+    divided by ``P(m)``, computed without forming ``mu_F`` (never underflows).
+
+    Raises ``ValueError`` when ``P(m) = 0`` (e.g. ``m >= 2`` with
+    ``clutter_mean = 0``)."""
+    m, c, pd, pg, lam = _common(m, snr, tau, pg, clutter_mean)
+    pt = np.empty(m)
+    pf = np.empty(m)
+    if not hpda_conditional_rank_kernel(m, c, pd * pg, lam, pt, pf):
+        raise ValueError(f"m = {m} measurements has probability 0 under clutter_mean = {lam} "
+                         f"and P_D P_G = {pd * pg}")
+    return pt, pf
+
+
+def rank_probability_q(l, m, snr):
+    """``q(l, m) = gamma(l) Pbar_A(m)``: probability that a detected target is the
+    ``l``-th strongest among itself and ``m - 1`` clutter returns (Beta form).
+
+    ``l`` may be an integer array; all entries must satisfy ``1 <= l <= m``.
+    """
+    m = as_count(m, "m")
+    snr = as_nonnegative(snr, "snr")
+    larr = np.asarray(l)
+    if larr.dtype.kind not in "iu" and not (larr.dtype.kind == "f"
+                                            and np.all(np.floor(larr) == larr)):
+        raise TypeError(f"l must hold integers, got dtype {larr.dtype}")
+    larr = larr.astype(np.float64)
+    if larr.size and (larr.min() < 1 or larr.max() > m):
+        raise ValueError(f"l must lie in [1, m] = [1, {m}]")
+    c = 1.0 / (1.0 + snr)
+    from scipy.special import gammaln
+    lq = (math.log(c) + gammaln(m) + gammaln(larr - 1.0 + c) - gammaln(larr) - gammaln(m + c))
+    out = np.exp(lq)
+    return float(out) if out.ndim == 0 else out
+
+
+def pa_bar(m, snr):
+    """``Pbar_A(m) = Gamma(m) Gamma(1+c) / Gamma(m+c)`` (stable form of eq 10's sum)."""
+    m = _as_int_ge1(m)
+    return rank_probability_q(1, m, snr)
+
+
+def _as_int_ge1(m):
+    m = as_count(m, "m")
+    if m < 1:
+        raise ValueError(f"m must be >= 1, got {m}")
+    return m
+
+
+def pa_bar_alternating(m, snr):
+    """``Pbar_A(m)`` by the **printed** alternating sum
+    ``sum_{i=0}^{m-1} (-1)^i C(m-1, i) / ((i+1) + i rho)`` in float64.
+
+    Kept to demonstrate catastrophic cancellation (erratum E12): at
+    ``rho = 5`` it returns about 10.7 for ``m = 70`` although the true value is
+    0.457.  Do not use it for computation.
+    """
+    m = _as_int_ge1(m)
+    rho = as_nonnegative(snr, "snr")
+    s = 0.0
+    for i in range(m):
+        s += (-1.0) ** i * math.comb(m - 1, i) / ((i + 1.0) + i * rho)
+    return s
+
+
+def rank_gamma(l, snr):
+    """``gamma(l) = prod_{j=1}^{l-1} [(j-1)(1+rho)+1] / ((l-1)! (1+rho)^{l-1})
+    = Gamma(l-1+c) / (Gamma(c) Gamma(l))`` (eq 10), via log-gamma."""
+    snr = as_nonnegative(snr, "snr")
+    l = _as_int_ge1(l)
+    c = 1.0 / (1.0 + snr)
+    return math.exp(math.lgamma(l - 1.0 + c) - math.lgamma(c) - math.lgamma(l))
+
+
+def hpda_rank_probabilities_printed(m, snr, tau, pg, clutter_mean):
+    """Eq (12) **exactly as printed**: ``P_D P_G gamma(l) Pbar_A(m) mu_F(m-1)``
+    for ``l < m`` with the alternating-sum ``Pbar_A`` and the product form of
+    ``gamma``, and the printed ``l = m`` branch
+    ``mu_F(m-1) / (P_D P_G m + (m-1) rho)`` (erratum E10: wrong).
+
+    For demonstration only (notebook 02)."""
+    m, c, pd, pg, lam = _common(m, snr, tau, pg, clutter_mean)
+    rho = 1.0 / c - 1.0
+    if m == 0:
+        return np.zeros(0)
+    mu1 = math.exp(_log_poisson(m - 1, lam))
+    pa = pa_bar_alternating(m, rho)
+    out = np.empty(m)
+    for l in range(1, m):
+        g = 1.0
+        for j in range(1, l):
+            g *= ((j - 1) * (1 + rho) + 1) / (j * (1 + rho))
+        out[l - 1] = pd * pg * g * pa * mu1
+    out[m - 1] = mu1 / (pd * pg * m + (m - 1) * rho)
+    return out
+
+
+# --------------------------------------------------------------------------
+# association (14), (15) and the particle likelihood (13)
+# --------------------------------------------------------------------------
+def hpda_betas(target_density, p_target, p_false, gate_volume):
+    """Association probabilities beta^l of eq (14), ``l = 1..m`` in rank order.
+
+    ``target_density[l]`` is ``f_T(z^l) = N(z^l; z_hat, S) / P_G`` (track
+    level), ``p_target``/``p_false`` the rank probabilities ``P(M_T^l, m)``,
+    ``P(M_F^l, m)`` (joint or conditional on ``m``, the ratio is the same), and
+    ``gate_volume`` V_G.  Each beta^l is the posterior probability that the
+    ``l``-th strongest measurement is the target's, given its rank and
+    position only.
+    """
+    f = as_array(target_density, "target_density", ndim=1)
+    m = f.shape[0]
+    pt = as_array(p_target, "p_target", shape=(m,))
+    pf = as_array(p_false, "p_false", shape=(m,))
+    vg = as_positive(gate_volume, "gate_volume")
+    if m and (f.min() < 0):
+        raise ValueError("target_density must be >= 0")
+    if m and (pt.min() < 0 or pf.min() < 0):
+        raise ValueError("p_target and p_false must be >= 0")
+    num = f * pt
+    den = num + pf / vg
+    with np.errstate(invalid="ignore", divide="ignore"):
+        beta = np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
+    return beta
+
+
+def hpda_select(betas):
+    """Index ``s`` (0-based rank) of the highest beta (eq 15); -1 for ``m = 0``.
+
+    Ties go to the stronger measurement (smaller rank)."""
+    b = as_array(betas, "betas", ndim=1)
+    if b.size == 0:
+        return -1
+    return int(np.argmax(b))
+
+
+def hpda_mixture_loglik(particles, z, R, p_target, p_false, gate_volume, sensor=(0.0, 0.0)):
+    """Particle log-likelihoods of eq (13) for the selected measurement ``z = z^s``:
+
+        log p(z | x_i, m) = log[N(z; h(x_i), R) P(M_T^s|m) + P(M_F^s|m) / V_G]
+
+    with range-bearing ``h`` (bearing innovation wrapped).  ``p_target`` and
+    ``p_false`` are the probabilities *conditional on m* (e.g. from
+    :func:`hpda_conditional_rank_probabilities`), so the result is the
+    normalised likelihood of (13).  Returns ``(N,)``.
+    """
+    X = as_array(particles, "particles", ndim=2)
+    if X.shape[1] < 2:
+        raise ValueError(f"particles must have at least 2 columns, got {X.shape}")
+    z = as_array(z, "z", shape=(2,))
+    R = as_array(R, "R", shape=(2, 2))
+    pt = as_probability(p_target, "p_target")
+    pf = as_probability(p_false, "p_false")
+    vg = as_positive(gate_volume, "gate_volume")
+    try:
+        L = np.linalg.cholesky(R)
+    except np.linalg.LinAlgError:
+        raise ValueError("R must be positive definite") from None
+    Rinv = np.ascontiguousarray(np.linalg.inv(R))
+    logdet = float(2.0 * np.sum(np.log(np.diag(L))))
+    s = np.asarray(sensor, dtype=np.float64)
+    lpt = math.log(pt) if pt > 0 else -np.inf
+    lpf = math.log(pf / vg) if pf > 0 else -np.inf
+    out = np.empty(X.shape[0])
+    hpda_mixture_loglik_kernel(X, z, Rinv, logdet, float(s[0]), float(s[1]), lpt, lpf, out)
+    return out
+
+
+# --------------------------------------------------------------------------
+# existence (16)-(19)
+# --------------------------------------------------------------------------
+def existence_predict(p, pi11, pi12=0.0):
+    """Eq (17) corrected (E13): ``P(H_k|Z^{k-1}) = Pi11 p + Pi12 (1 - p)``."""
+    p = as_probability(p, "p")
+    pi11 = as_probability(pi11, "pi11")
+    pi12 = as_probability(pi12, "pi12")
+    return pi11 * p + pi12 * (1.0 - p)
+
+
+def hpda_existence_delta(m, s, normal_density, snr, tau, pg, clutter_density, gate_volume):
+    """delta_k of eq (19) for ``m`` validated measurements, selected rank ``s``
+    (1-based, ``1 <= s <= m``; ignored when ``m = 0``), ``normal_density =
+    N(z^s; z_hat, S)`` (*not* divided by P_G), lambda = ``clutter_density``
+    in measurement-space units and ``gate_volume`` V_G.  ``m = 0`` gives
+    ``P_D P_G`` (the IPDA miss update)."""
+    m = as_count(m, "m")
+    snr = as_nonnegative(snr, "snr")
+    tau = as_nonnegative(tau, "tau")
+    pg = as_probability(pg, "pg")
+    pd = math.exp(-tau / (1.0 + snr))
+    if m == 0:
+        return pd * pg
+    s = as_count(s, "s")
+    if not 1 <= s <= m:
+        raise ValueError(f"s must lie in [1, m] = [1, {m}], got {s}")
+    nd = as_nonnegative(normal_density, "normal_density")
+    lam = as_positive(clutter_density, "clutter_density")
+    vg = as_positive(gate_volume, "gate_volume")
+    q = math.exp(_log_q(float(s), float(m), 1.0 / (1.0 + snr)))
+    return float(hpda_existence_delta_kernel(m, q, pd, pg, lam, vg, nd))
+
+
+def existence_update(p_pred, delta):
+    """Eq (19): ``(1 - delta) p / (1 - delta p)`` with ``p = P(H_k|Z^{k-1})``."""
+    p = as_probability(p_pred, "p_pred")
+    d = as_scalar(delta, "delta")
+    if d > 1.0:
+        raise ValueError(f"delta must be <= 1, got {d}")
+    den = 1.0 - d * p
+    if den <= 0.0:
+        return 1.0
+    return min(1.0, max(0.0, (1.0 - d) * p / den))
+
+
+# --------------------------------------------------------------------------
+# first-principles Monte Carlo of the amplitude ranks (for verification)
+# --------------------------------------------------------------------------
+@nb.njit(cache=True)
+def _simulate_ranks_kernel(rng, n_draws, snr, tau, pg, clutter_mean, counts):
+    m_max = counts.shape[0] - 1
+    for _ in range(n_draws):
+        present = rng.random() < pg
+        at = -1.0
+        if present:
+            a = rng.exponential(1.0 + snr)
+            if a > tau:
+                at = a
+        nf = rng.poisson(clutter_mean)
+        m = nf + (1 if at >= 0.0 else 0)
+        rank = 0
+        if at >= 0.0:
+            rank = 1
+        for _j in range(nf):
+            ac = tau + rng.exponential(1.0)
+            if at >= 0.0 and ac > at:
+                rank += 1
+        if m <= m_max:
+            counts[m, rank] += 1
+
+
+def simulate_hpda_ranks(rng, n_draws, snr, tau, pg, clutter_mean, m_max):
+    """Monte Carlo of the amplitude ranks from first principles.
+
+    Each draw: the target is in the gate with probability ``pg``; its raw
+    amplitude is Exp(mean ``1 + snr``) and it is detected iff that exceeds
+    ``tau``; ``Poisson(clutter_mean)`` validated clutter returns have
+    amplitudes ``tau + Exp(1)``.  Returns integer counts ``(m_max + 1,
+    m_max + 1)``: ``counts[m, l]`` for ``m`` validated measurements with the
+    target ranked ``l`` (1 = strongest), ``counts[m, 0]`` with no target
+    measurement.  Draws with ``m > m_max`` are dropped (they still count in
+    ``n_draws``).
+    """
+    rng = as_rng(rng)
+    n = as_count(n_draws, "n_draws")
+    snr = as_nonnegative(snr, "snr")
+    tau = as_nonnegative(tau, "tau")
+    pg = as_probability(pg, "pg")
+    lam = as_nonnegative(clutter_mean, "clutter_mean")
+    m_max = as_count(m_max, "m_max")
+    counts = np.zeros((m_max + 1, m_max + 1), dtype=np.int64)
+    _simulate_ranks_kernel(rng, n, snr, tau, pg, lam, counts)
+    return counts
