@@ -1,0 +1,131 @@
+"""Ellipsoidal (chi-square) validation gates.
+
+A measurement ``z_j`` falls in the gate of a track with predicted measurement
+``z_pred`` and innovation covariance ``S`` when its squared Mahalanobis
+distance ``d2_j = nu_j^T S^-1 nu_j`` (``nu_j = z_j - z_pred``) is at most
+``gamma``.  With ``gamma`` the ``pg``-quantile of the chi-square distribution
+with ``d`` degrees of freedom, a target-originated measurement lies in the
+gate with probability ``P_G = pg`` (Bar-Shalom & Li).  The gate volume is
+``V = c_d gamma^{d/2} |S|^{1/2}`` with ``c_d = pi^{d/2} / Gamma(d/2 + 1)``
+the volume of the unit ball in ``d`` dimensions.
+"""
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+from scipy import special, stats
+
+from ..core.validation import as_covariance, as_int, as_measurements, as_nonnegative, as_probability, as_vector
+from ..filters.kalman import cholesky_lower_kernel
+from ..models.measurement import wrap_angle_kernel
+
+__all__ = [
+    "gate_threshold",
+    "gate_probability",
+    "unit_ball_volume",
+    "gate_volume",
+    "mahalanobis_gate",
+    "mahalanobis_gate_kernel",
+]
+
+
+def gate_threshold(pg, d):
+    """Gate threshold ``gamma`` with ``P(chi2_d <= gamma) = pg``.
+
+    ``pg`` in (0, 1]; ``pg = 1`` gives ``gamma = inf`` (no gating).
+    """
+    pg = as_probability(pg, "pg", open_low=True)
+    d = as_int(d, "d", minimum=1)
+    if pg == 1.0:
+        return math.inf
+    return float(stats.chi2.ppf(pg, d))
+
+
+def gate_probability(gamma, d):
+    """``P_G = P(chi2_d <= gamma)``, the inverse of :func:`gate_threshold`."""
+    gamma = as_nonnegative(gamma, "gamma") if not (isinstance(gamma, float) and gamma == math.inf) else gamma
+    d = as_int(d, "d", minimum=1)
+    if gamma == math.inf:
+        return 1.0
+    return float(special.gammainc(d / 2.0, gamma / 2.0))
+
+
+def unit_ball_volume(d):
+    """``c_d = pi^{d/2} / Gamma(d/2 + 1)`` (2 for d=1, pi for d=2, 4pi/3 for d=3)."""
+    d = as_int(d, "d", minimum=1)
+    return float(math.exp(0.5 * d * math.log(math.pi) - math.lgamma(0.5 * d + 1.0)))
+
+
+def gate_volume(gamma, S):
+    """Volume ``c_d gamma^{d/2} |S|^{1/2}`` of ``{nu : nu^T S^-1 nu <= gamma}``."""
+    if isinstance(gamma, float) and gamma == math.inf:
+        return math.inf
+    gamma = as_nonnegative(gamma, "gamma")
+    S = as_covariance(S, "S", strict=True)
+    d = S.shape[0]
+    if d == 0:
+        raise ValueError("S must not be empty")
+    sign, logdet = np.linalg.slogdet(S)
+    return float(unit_ball_volume(d) * gamma ** (0.5 * d) * math.exp(0.5 * logdet))
+
+
+@nb.njit(cache=True)
+def mahalanobis_gate_kernel(z, z_pred, L, gamma, angle_index, mask, d2):
+    """Squared Mahalanobis distances of the rows of ``z`` (m, d) and the gate
+    mask ``d2 <= gamma``; ``L`` is the lower Cholesky factor of ``S``;
+    ``angle_index`` < 0 means no angular component (else that component of
+    the innovation is wrapped to (-pi, pi]).  Returns the number gated."""
+    m, d = z.shape
+    y = np.empty(d)
+    count = 0
+    for j in range(m):
+        q = 0.0
+        for a in range(d):
+            r = z[j, a] - z_pred[a]
+            if a == angle_index:
+                r = wrap_angle_kernel(r)
+            for b in range(a):
+                r -= L[a, b] * y[b]
+            y[a] = r / L[a, a]
+            q += y[a] * y[a]
+        d2[j] = q
+        ok = q <= gamma
+        mask[j] = ok
+        if ok:
+            count += 1
+    return count
+
+
+def mahalanobis_gate(z, z_pred, S, gamma, angle_index=None):
+    """Gate a scan: returns ``(mask (m,) bool, d2 (m,))``.
+
+    ``z``: ``(m, d)`` measurements (``m = 0`` allowed); ``z_pred`` ``(d,)``;
+    ``S`` ``(d, d)`` positive definite innovation covariance; ``gamma`` the
+    threshold (``>= 0``, ``inf`` accepts all); ``angle_index``: index of an
+    angular measurement component whose innovation is wrapped to (-pi, pi].
+    """
+    z_pred = as_vector(z_pred, "z_pred")
+    d = z_pred.shape[0]
+    if d == 0:
+        raise ValueError("z_pred must not be empty")
+    z = as_measurements(z, "z", d)
+    S = as_covariance(S, "S", d, strict=True)
+    if not (isinstance(gamma, float) and gamma == math.inf):
+        gamma = as_nonnegative(gamma, "gamma")
+    if angle_index is None:
+        ai = -1
+    else:
+        ai = as_int(angle_index, "angle_index")
+        if not -d <= ai < d:
+            raise ValueError(f"angle_index must index one of the {d} components, got {ai}")
+        ai %= d
+    L = np.zeros((d, d))
+    if not cholesky_lower_kernel(S, L):
+        raise ValueError("S must be positive definite")
+    m = z.shape[0]
+    mask = np.zeros(m, dtype=np.bool_)
+    d2 = np.empty(m)
+    mahalanobis_gate_kernel(z, z_pred, L, float(gamma), ai, mask, d2)
+    return mask, d2
