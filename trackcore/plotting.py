@@ -5,8 +5,12 @@ Every notebook calls :func:`use_book_style` in its hidden first cell.
 from __future__ import annotations
 
 import matplotlib
+import numpy as np
 
-__all__ = ["use_book_style", "BOOK_COLORS"]
+from .core.validation import as_array
+
+__all__ = ["use_book_style", "BOOK_COLORS", "plot_rmse_vs_time", "plot_tracks_2d",
+           "plot_count_vs_scan", "plot_consistency", "paper_vs_ours_table"]
 
 BOOK_COLORS = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#F0E442", "#000000")
 
@@ -30,3 +34,170 @@ def use_book_style() -> None:
         "legend.frameon": False,
         "image.cmap": "viridis",
     })
+
+
+# --------------------------------------------------------------------------- recurring plots
+# Each function draws on a given ``matplotlib.axes.Axes`` and returns it, so a
+# notebook controls the figure layout and ends the cell with ``plt.show()``.
+
+
+def _as_float_array(x, name, ndim=None):
+    return as_array(x, name, ndim=ndim)
+
+
+def _check_ax(ax):
+    if not hasattr(ax, "plot") or not hasattr(ax, "set_xlabel"):
+        raise TypeError(f"ax must be a matplotlib Axes, got {type(ax).__name__}")
+
+
+def plot_rmse_vs_time(ax, t, curves, shade=None, *, xlabel="time [s]", ylabel="RMSE [m]",
+                      shade_label="manoeuvre", styles=None):
+    """RMSE (or any error) curves against time, with optional shaded windows.
+
+    ``curves`` maps a legend label to an array of ``len(t)`` values; ``shade`` is a
+    list of ``(start, stop)`` time intervals (e.g. manoeuvres) drawn as grey
+    bands; ``styles`` optionally maps a label to ``Axes.plot`` keyword arguments.
+    """
+    _check_ax(ax)
+    t = _as_float_array(t, "t", ndim=1)
+    if not isinstance(curves, dict) or not curves:
+        raise TypeError("curves must be a non-empty dict {label: values}")
+    styles = styles or {}
+    first = True
+    for a, b in (shade or ()):
+        if not (np.isfinite(a) and np.isfinite(b) and a <= b):
+            raise ValueError(f"shade intervals must be finite (start, stop) with start <= stop, "
+                             f"got {(a, b)}")
+        ax.axvspan(a, b, color="0.85", zorder=0, label=shade_label if first else None)
+        first = False
+    for label, values in curves.items():
+        v = _as_float_array(values, f"curves[{label!r}]", ndim=1)
+        if v.shape != t.shape:
+            raise ValueError(f"curves[{label!r}] must have shape {t.shape}, got {v.shape}")
+        ax.plot(t, v, label=label, **styles.get(label, {}))
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.legend()
+    return ax
+
+
+def plot_tracks_2d(ax, truth, estimates, measurements=None, *, units="m"):
+    """Plan view of true trajectories, estimated tracks and (optionally) measurements.
+
+    ``truth`` and each estimate are ``(n_steps, n)`` state arrays (``[x, y, ...]``)
+    or lists of them (one per target); ``estimates`` may also be a dict
+    ``{label: array or list}``.  ``measurements`` is a list of ``(m, 2)`` Cartesian
+    scans (``m = 0`` allowed) or one ``(M, 2)`` array, drawn as small dots.
+    """
+    _check_ax(ax)
+
+    def tracks(obj, name):
+        if isinstance(obj, (list, tuple)):
+            return [_as_float_array(a, f"{name}[{i}]", ndim=2) for i, a in enumerate(obj)]
+        return [_as_float_array(obj, name, ndim=2)]
+
+    if measurements is not None:
+        if isinstance(measurements, (list, tuple)):
+            scans = [_as_float_array(z, f"measurements[{k}]").reshape(-1, 2)
+                     for k, z in enumerate(measurements)]
+            pts = np.concatenate(scans) if scans else np.zeros((0, 2))
+        else:
+            pts = _as_float_array(measurements, "measurements", ndim=2)
+        if pts.shape[1] != 2:
+            raise ValueError(f"measurements must be (m, 2) Cartesian points, got {pts.shape}")
+        ax.plot(pts[:, 0], pts[:, 1], ".", color="0.6", ms=2, label="measurements", zorder=1)
+    for i, tr in enumerate(tracks(truth, "truth")):
+        ax.plot(tr[:, 0], tr[:, 1], "-", color="k", lw=1.5, label="truth" if i == 0 else None)
+        ax.plot(tr[:1, 0], tr[:1, 1], "o", color="k", ms=4)
+    est = estimates if isinstance(estimates, dict) else {"estimate": estimates}
+    for j, (label, obj) in enumerate(est.items()):
+        color = BOOK_COLORS[j % len(BOOK_COLORS)]
+        for i, tr in enumerate(tracks(obj, f"estimates[{label!r}]")):
+            ax.plot(tr[:, 0], tr[:, 1], "--", color=color, lw=1.2, label=label if i == 0 else None)
+    ax.set_xlabel(f"x [{units}]")
+    ax.set_ylabel(f"y [{units}]")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend()
+    return ax
+
+
+def plot_count_vs_scan(ax, scans, mean_counts, truth, *, ylabel="number of targets"):
+    """Mean estimated target count per scan for each method against the true count."""
+    _check_ax(ax)
+    k = _as_float_array(scans, "scans", ndim=1)
+    tr = _as_float_array(truth, "truth", ndim=1)
+    if tr.shape != k.shape:
+        raise ValueError(f"truth must have shape {k.shape}, got {tr.shape}")
+    if not isinstance(mean_counts, dict) or not mean_counts:
+        raise TypeError("mean_counts must be a non-empty dict {label: values}")
+    ax.step(k, tr, where="mid", color="k", lw=1.5, label="truth")
+    for label, values in mean_counts.items():
+        v = _as_float_array(values, f"mean_counts[{label!r}]", ndim=1)
+        if v.shape != k.shape:
+            raise ValueError(f"mean_counts[{label!r}] must have shape {k.shape}, got {v.shape}")
+        ax.plot(k, v, label=label)
+    ax.set_xlabel("scan")
+    ax.set_ylabel(ylabel)
+    ax.legend()
+    return ax
+
+
+def plot_consistency(ax, t, values, bounds, label="NEES", *, xlabel="time [s]"):
+    """Run-averaged NEES/NIS against time with its chi-square acceptance band.
+
+    ``bounds`` is ``(lower, upper)`` as returned by
+    :func:`trackcore.metrics.chi2_bounds`; the fraction of points inside the
+    band is added to the legend.
+    """
+    _check_ax(ax)
+    t = _as_float_array(t, "t", ndim=1)
+    v = _as_float_array(values, "values", ndim=1)
+    if v.shape != t.shape:
+        raise ValueError(f"values must have shape {t.shape}, got {v.shape}")
+    try:
+        lo, hi = (float(b) for b in bounds)
+    except (TypeError, ValueError):
+        raise TypeError("bounds must be a (lower, upper) pair of numbers") from None
+    if not lo <= hi:
+        raise ValueError(f"bounds must satisfy lower <= upper, got {(lo, hi)}")
+    inside = float(np.mean((v >= lo) & (v <= hi))) if v.size else float("nan")
+    ax.axhspan(lo, hi, color=BOOK_COLORS[2], alpha=0.15,
+               label=f"{lo:.2f}-{hi:.2f} acceptance band")
+    ax.plot(t, v, color=BOOK_COLORS[0], label=f"{label} ({100 * inside:.0f} % inside)")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(f"average {label}")
+    ax.legend()
+    return ax
+
+
+def paper_vs_ours_table(rows, headers=("quantity", "paper", "this book"), *, floatfmt=".3g"):
+    """A Markdown table comparing the paper's numbers with ours (no pandas needed).
+
+    ``rows`` is a sequence of equal-length sequences; floats are formatted with
+    ``floatfmt``, ``None`` becomes an em dash, other values use ``str``.  Print the
+    result in a notebook cell, or wrap it in ``IPython.display.Markdown``.
+    """
+    headers = [str(h) for h in headers]
+    if isinstance(rows, (str, bytes)) or not hasattr(rows, "__iter__"):
+        raise TypeError("rows must be a sequence of row sequences")
+
+    def fmt(v):
+        if v is None:
+            return "\u2014"
+        if isinstance(v, (float, np.floating)):
+            return format(float(v), floatfmt)
+        return str(v).replace("|", "\\|")
+
+    body = []
+    for i, row in enumerate(rows):
+        if isinstance(row, (str, bytes)) or not hasattr(row, "__len__"):
+            raise TypeError(f"rows[{i}] must be a sequence, got {type(row).__name__}")
+        if len(row) != len(headers):
+            raise ValueError(f"rows[{i}] has {len(row)} cells, expected {len(headers)} "
+                             f"(one per header)")
+        body.append([fmt(v) for v in row])
+    widths = [max([len(h)] + [len(r[j]) for r in body]) for j, h in enumerate(headers)]
+    lines = ["| " + " | ".join(h.ljust(w) for h, w in zip(headers, widths)) + " |",
+             "| " + " | ".join("-" * w for w in widths) + " |"]
+    lines += ["| " + " | ".join(c.ljust(w) for c, w in zip(r, widths)) + " |" for r in body]
+    return "\n".join(lines)
