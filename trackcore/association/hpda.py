@@ -38,7 +38,7 @@ import math
 import numba as nb
 import numpy as np
 
-from ..filters.particle import loglik_range_bearing_kernel
+from ..models.measurement import wrap_angle_kernel
 from ..core.validation import (as_array, as_count, as_rng, as_nonnegative, as_positive,
                                as_probability, as_scalar)
 
@@ -189,11 +189,22 @@ def hpda_mixture_loglik_kernel(particles, z, Rinv, logdetR, sx, sy, log_pt, log_
     """Eq (13) per particle, up to the constant ``-log P(m)``:
     ``out[i] = log[N(z; h(x_i), R) P_T + P_F / V_G]`` with ``log_pt = log P_T``
     and ``log_pf_vg = log(P_F / V_G)`` (conditional or joint, as long as both
-    use the same normaliser).  ``out`` is overwritten."""
-    for i in range(out.shape[0]):
-        out[i] = 0.0
-    loglik_range_bearing_kernel(particles, z, Rinv, logdetR, sx, sy, out)
-    _mixture_kernel(out, log_pt, log_pf_vg, out)
+    use the same normaliser).  ``out`` is overwritten.  Range-bearing ``h``
+    from the sensor at ``(sx, sy)``, bearing innovation wrapped."""
+    c = -1.8378770664093453 - 0.5 * logdetR
+    for i in range(particles.shape[0]):
+        dx = particles[i, 0] - sx
+        dy = particles[i, 1] - sy
+        r0 = z[0] - math.sqrt(dx * dx + dy * dy)
+        r1 = wrap_angle_kernel(z[1] - math.atan2(dy, dx))
+        ll = c - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
+                        + Rinv[1, 1] * r1 * r1)
+        u = ll + log_pt
+        hi = max(u, log_pf_vg)
+        if hi == -np.inf:
+            out[i] = -np.inf
+        else:
+            out[i] = hi + math.log(math.exp(u - hi) + math.exp(log_pf_vg - hi))
 
 
 # --------------------------------------------------------------------------
