@@ -1,0 +1,207 @@
+"""Tests for trackcore.detection.image (renderer, segmentation, blobs, NCC)."""
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from trackcore.detection.image import (
+    SPRITES, RunningAverage, ViBe, bar_sprite, clean_mask, detect_blobs, foliage_sprite,
+    mask_iou, ncc, ncc_matrix, ncc_reference, render_frame, rotate_sprite, terrain,
+    vehicle_sprite,
+)
+
+
+# ---------------------------------------------------------------- NCC
+def test_ncc_equals_direct_loop():
+    rng = np.random.default_rng(0)
+    for _ in range(25):
+        A = rng.normal(50, 20, rng.integers(3, 15, 2))
+        B = rng.normal(50, 20, rng.integers(3, 15, 2))
+        for kind in ("mask", "grey"):
+            assert abs(ncc(A, B, kind=kind) - ncc_reference(A, B, kind=kind)) < 1e-12
+        Am, Bm = A > 50, B > 50
+        assert abs(ncc(Am, Bm) - ncc_reference(Am, Bm)) < 1e-12
+
+
+@settings(max_examples=30, deadline=None)
+@given(h1=st.integers(2, 12), w1=st.integers(2, 12), h2=st.integers(2, 12),
+       w2=st.integers(2, 12), s=st.integers(0, 4), seed=st.integers(0, 2**31))
+def test_ncc_property_bounds_symmetry_and_reference(h1, w1, h2, w2, s, seed):
+    rng = np.random.default_rng(seed)
+    A = rng.random((h1, w1)) > 0.4
+    B = rng.random((h2, w2)) > 0.4
+    r = ncc(A, B, s=s)
+    assert -1 - 1e-12 <= r <= 1 + 1e-12
+    assert abs(r - ncc_reference(A, B, s=s)) < 1e-12
+
+
+def test_ncc_identity_shift_and_symmetry():
+    I, M = vehicle_sprite("van")
+    assert ncc(M, M) == pytest.approx(1.0, abs=1e-12)
+    assert ncc(I, I, kind="grey") == pytest.approx(1.0, abs=1e-12)
+    # shifting within the search window does not matter
+    padded = np.zeros((M.shape[0] + 3, M.shape[1] + 2), bool)
+    padded[2:2 + M.shape[0], 1:1 + M.shape[1]] = M
+    assert ncc(M, padded) == pytest.approx(1.0, abs=1e-12)
+    S = vehicle_sprite("sedan")[1]
+    assert ncc(M, S) == pytest.approx(ncc(S, M), abs=1e-12)
+    # a constant patch has no variance: rho = 0 by convention
+    assert ncc(np.ones((5, 5)), np.ones((4, 4)), s=0, kind="grey") == 0.0
+
+
+def test_ncc_against_skimage_match_template_if_available():
+    skf = pytest.importorskip("skimage.feature")
+    rng = np.random.default_rng(3)
+    big = rng.normal(0, 1, (20, 24))
+    small = big[5:15, 6:18].copy()
+    # our canvas: small centred in a canvas of big's size + 2s; max over shifts
+    ours = ncc(big, small, s=4, kind="grey")
+    ref = skf.match_template(big, small).max()
+    assert ours <= ref + 1e-9
+
+
+def test_ncc_bad_input():
+    with pytest.raises(ValueError, match="A"):
+        ncc(np.zeros((0, 3)), np.ones((2, 2)))
+    with pytest.raises(ValueError, match="kind"):
+        ncc(np.ones((2, 2)), np.ones((2, 2)), kind="x")
+    with pytest.raises(ValueError, match="B"):
+        ncc(np.ones((2, 2)), np.ones(3))
+    with pytest.raises(ValueError, match="s"):
+        ncc(np.ones((2, 2)), np.ones((2, 2)), s=-1)
+    with pytest.raises(ValueError, match="B"):
+        ncc(np.ones((2, 2)), np.full((2, 2), np.nan))
+
+
+def test_silhouettes_separate_vehicle_types():
+    masks = [vehicle_sprite(k)[1] for k in SPRITES]
+    rho = ncc_matrix(masks, masks)
+    assert np.allclose(np.diag(rho), 1.0)
+    off = rho[~np.eye(4, dtype=bool)]
+    assert off.max() < 0.9
+    bar = bar_sprite(6, 22)[1]
+    assert max(ncc(bar, m) for m in masks) < 0.6
+
+
+# ---------------------------------------------------------------- sprites and rendering
+def test_vehicle_sprite_lamps_and_corners():
+    for kind, (h, w, body) in SPRITES.items():
+        I, M = vehicle_sprite(kind)
+        assert I.shape == M.shape == (h, w)
+        assert not M[0, 0] and not M[-1, -1]
+        lamp_rows = np.nonzero((I == 255).any(axis=1))[0]
+        assert len(lamp_rows) == 4                      # two 2-row lamps
+        assert (I[:, : w - 3] != 255).all()             # lamps only at the front
+        assert (I == 255).sum() <= 12
+    with pytest.raises(ValueError, match="kind"):
+        vehicle_sprite("bus")
+
+
+def test_rotate_sprite():
+    I, M = vehicle_sprite("sedan")
+    I90, M90 = rotate_sprite(I, M, np.pi / 2)
+    assert M90.shape == (M.shape[1], M.shape[0])
+    # heading up: lamps at the top rows
+    assert (I90[:3] > 200).any() and not (I90[-3:] > 200).any()
+    I20, M20 = rotate_sprite(I, M, np.deg2rad(20))
+    assert abs(M20.sum() - M.sum()) / M.sum() < 0.1
+
+
+def test_foliage_and_bar():
+    rng = np.random.default_rng(1)
+    I, M = foliage_sprite(rng)
+    assert 80 < M.sum() < 400
+    I, M = bar_sprite()
+    assert M.shape == (22, 6)
+
+
+def test_render_frame_and_truth():
+    rng = np.random.default_rng(2)
+    bg = terrain(rng)
+    assert bg.shape == (240, 320)
+    assert np.all(bg[104:136] == 30) and np.all(bg[:, 144:176] == 30)
+    I, M = vehicle_sprite("van")
+    frame, labels, boxes = render_frame(bg, [(I, M, 100.0, 120.0)], rng)
+    assert frame.dtype == np.uint8 and frame.shape == (240, 320)
+    assert labels.sum() == M.sum()
+    r, c = np.nonzero(labels == 1)
+    assert abs(c.mean() - 100) <= 0.5 and abs(r.mean() - 120) <= 0.5
+    assert tuple(boxes[0]) == (r.min(), c.min(), r.max() + 1, c.max() + 1)
+    # off-frame object: no pixels, box -1
+    _, labels, boxes = render_frame(bg, [(I, M, -100.0, 120.0)], rng)
+    assert labels.max() == 0 and boxes[0, 0] == -1
+    with pytest.raises(TypeError, match="rng"):
+        render_frame(bg, [], None)
+
+
+def test_render_deterministic_given_rng():
+    bg = terrain(np.random.default_rng(4))
+    f1 = render_frame(bg, [], np.random.default_rng(5))[0]
+    f2 = render_frame(bg, [], np.random.default_rng(5))[0]
+    assert np.array_equal(f1, f2)
+
+
+# ---------------------------------------------------------------- segmentation
+def _segment_sequence(seg_cls, seed):
+    rng = np.random.default_rng(seed)
+    bg = terrain(rng)
+    sprites = [vehicle_sprite(k) for k in ("van", "compact")]
+    frames = [render_frame(bg, [], rng)[0] for _ in range(10)]
+    seg = seg_cls(frames[0], rng) if seg_cls is ViBe else seg_cls(frames[0])
+    for f in frames[1:]:
+        seg.apply(f)
+    ious, dets = [], []
+    for k in range(20):
+        objs = [(sprites[0][0], sprites[0][1], 30 + 3.0 * k, 114.0),
+                (sprites[1][0], sprites[1][1], 250.0 - 2.5 * k, 126.0)]
+        frame, labels, _ = render_frame(bg, objs, rng, gain=1 + 0.02 * np.sin(2 * np.pi * k / 200))
+        mask = clean_mask(seg.apply(frame))
+        for i in (1, 2):
+            ious.append(mask_iou(mask & (np.abs(np.arange(320)[None] - objs[i - 1][2]) < 25)
+                                 & (np.abs(np.arange(240)[:, None] - objs[i - 1][3]) < 10),
+                                 labels == i))
+        dets.append(detect_blobs(mask, frame, clean=False))
+    return np.array(ious), dets
+
+
+@pytest.mark.parametrize("seg_cls", [ViBe, RunningAverage])
+def test_segmentation_iou_and_detections(seg_cls):
+    ious, dets = _segment_sequence(seg_cls, 11)
+    assert ious.mean() >= 0.8
+    # two vehicles -> two detections per frame, almost always
+    counts = np.array([len(d.z) for d in dets])
+    assert np.mean(counts == 2) >= 0.9
+
+
+def test_detect_blobs_geometry_and_empty():
+    mask = np.zeros((50, 60), bool)
+    mask[10:20, 5:25] = True
+    mask[30:32, 40:42] = True        # too small (area 4 < 25)
+    frame = np.where(mask, 60.0, 30.0)
+    d = detect_blobs(mask, frame, clean=False)
+    assert d.z.shape == (1, 2)
+    assert np.allclose(d.z[0], [14.5, 14.5])
+    assert tuple(d.boxes[0]) == (10, 5, 20, 25) and d.areas[0] == 200
+    assert d.masks[0].shape == (18, 28) and d.greys[0].shape == (18, 28)
+    e = detect_blobs(np.zeros((50, 60), bool), frame)
+    assert e.z.shape == (0, 2) and e.masks == []
+    with pytest.raises(ValueError, match="mask"):
+        detect_blobs(np.zeros((10, 10), bool), frame)
+
+
+def test_running_average_bad_input():
+    with pytest.raises(ValueError, match="alpha"):
+        RunningAverage(np.zeros((4, 4)), alpha=2.0)
+    with pytest.raises(ValueError, match="frame"):
+        RunningAverage(np.zeros((4, 4))).apply(np.zeros((3, 3)))
+    with pytest.raises(TypeError, match="rng"):
+        ViBe(np.zeros((4, 4)), rng=1)
+    with pytest.raises(ValueError, match="min_matches"):
+        ViBe(np.zeros((4, 4)), np.random.default_rng(0), n_samples=2, min_matches=3)
+
+
+def test_mask_iou():
+    a = np.zeros((4, 4), bool)
+    assert mask_iou(a, a) == 1.0
+    b = a.copy(); b[0, :2] = True
+    c = a.copy(); c[0, 1:3] = True
+    assert mask_iou(b, c) == pytest.approx(1 / 3)
