@@ -10,7 +10,7 @@ Conventions
 * Set metrics take the estimated set ``X`` first and the true set ``Y`` second,
   each an ``(m, d)`` array of points (``[]`` or a ``(0, d)`` array for the empty
   set), like Stone Soup's ``compute_gospa_metric(measured_states, truth_states)``.
-* OSPA :cite:p:`schuhmacher2008consistent` minimises
+* OSPA :cite:p:`schuhmacher2008ospa` minimises
   :math:`\\sum \\min(d, c)^p` exactly with ``scipy.optimize.linear_sum_assignment``.
   GOSPA :cite:p:`rahmathullah2017gospa` uses the same assignment; its components
   (localisation, missed, false) are reported, as in Stone Soup, in units of
@@ -275,7 +275,7 @@ def ospa(X, Y, c, p=1):
               \\min(c, \\|x_i - y_{\\pi(i)}\\|)^p + c^p (n - m)\\big)\\Big)^{1/p},
               \\quad m \\le n,
 
-    :cite:p:`schuhmacher2008consistent`.  Returns :class:`OSPAResult`
+    :cite:p:`schuhmacher2008ospa`.  Returns :class:`OSPAResult`
     ``(distance, localisation, cardinality)`` where
     ``localisation = (min_pi sum min(c, d)^p / n)^(1/p)`` and
     ``cardinality = (c^p (n - m) / n)^(1/p)``.  Both sets empty gives zeros.
