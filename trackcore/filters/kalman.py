@@ -1,0 +1,408 @@
+"""Kalman filter and extended Kalman filter (Joseph-form update).
+
+Public functions (:func:`kf_predict`, :func:`kf_update`, :func:`ekf_update`,
+:func:`kalman_filter_run`) validate their inputs once and call numba kernels.
+The kernels (``*_kernel``) assume valid, C-contiguous float64 arrays and write
+into preallocated outputs; they are meant to be called from other kernels
+(IMM, PDA, trackers).
+
+Update (Bar-Shalom, Li & Kirubarajan 2001, sec. 5.2):
+``S = H P H^T + R``, ``K = P H^T S^{-1}``, ``x+ = x + K nu``,
+``P+ = (I - K H) P (I - K H)^T + K R K^T`` (Joseph form, then symmetrised).
+``S^{-1}`` is applied through its Cholesky factor; the log-likelihood
+``log N(nu; 0, S)`` and the NIS ``nu^T S^{-1} nu`` come from the same factor.
+An empty measurement (``m = 0``) is a valid update that changes nothing
+(``nis = 0``, ``loglik = 0``).
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numba as nb
+import numpy as np
+
+from ..core.logmath import LOG_2PI
+from ..core.validation import as_array, as_covariance, as_int, as_matrix, as_vector
+from ..models.measurement import wrap_angle_kernel
+
+__all__ = [
+    "GaussianEstimate",
+    "KalmanUpdate",
+    "KalmanRun",
+    "kf_predict",
+    "kf_update",
+    "ekf_update",
+    "kalman_filter_run",
+    "cholesky_lower_kernel",
+    "kf_predict_kernel",
+    "kf_update_kernel",
+    "kalman_filter_run_kernel",
+]
+
+
+class GaussianEstimate(NamedTuple):
+    """A Gaussian state estimate: mean ``x`` (n,) and covariance ``P`` (n, n)."""
+    x: np.ndarray
+    P: np.ndarray
+
+
+class KalmanUpdate(NamedTuple):
+    """Result of a (E)KF measurement update."""
+    x: np.ndarray           # posterior mean (n,)
+    P: np.ndarray           # posterior covariance (n, n)
+    innovation: np.ndarray  # nu = z - z_pred (m,), angles wrapped for the EKF
+    S: np.ndarray           # innovation covariance (m, m)
+    K: np.ndarray           # gain (n, m)
+    nis: float              # nu^T S^{-1} nu
+    loglik: float           # log N(nu; 0, S)
+
+
+class KalmanRun(NamedTuple):
+    """Result of :func:`kalman_filter_run` over K scans."""
+    xs: np.ndarray      # (K, n) posterior means
+    Ps: np.ndarray      # (K, n, n) posterior covariances
+    nis: np.ndarray     # (K,) NIS (NaN for a missed scan)
+    loglik: np.ndarray  # (K,) log N(nu_k; 0, S_k) (0 for a missed scan)
+
+
+# ---------------------------------------------------------------------- kernels
+@nb.njit(cache=True)
+def cholesky_lower_kernel(A, L):
+    """Lower Cholesky factor of symmetric ``A`` into ``L``; False if not PD."""
+    m = A.shape[0]
+    for i in range(m):
+        for j in range(i + 1):
+            s = A[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            if i == j:
+                if not s > 0.0:
+                    return False
+                L[i, i] = math.sqrt(s)
+            else:
+                L[i, j] = s / L[j, j]
+        for j in range(i + 1, m):
+            L[i, j] = 0.0
+    return True
+
+
+@nb.njit(cache=True, inline="always")
+def _predict_into(x, P, F, Q, x_out, P_out, FP):
+    n = x.shape[0]
+    for i in range(n):
+        s = 0.0
+        for k in range(n):
+            s += F[i, k] * x[k]
+        x_out[i] = s
+    for i in range(n):
+        for j in range(n):
+            s = 0.0
+            for k in range(n):
+                s += F[i, k] * P[k, j]
+            FP[i, j] = s
+    for i in range(n):
+        for j in range(i + 1):
+            s = 0.0
+            for k in range(n):
+                s += FP[i, k] * F[j, k]
+            v = s + 0.5 * (Q[i, j] + Q[j, i])
+            P_out[i, j] = v
+            P_out[j, i] = v
+
+
+@nb.njit(cache=True)
+def kf_predict_kernel(x, P, F, Q, x_out, P_out):
+    """``x_out = F x``, ``P_out = F P F^T + Q`` (outputs may not alias inputs)."""
+    FP = np.empty_like(P)
+    _predict_into(x, P, F, Q, x_out, P_out, FP)
+
+
+@nb.njit(cache=True, inline="always")
+def _update_into(x, P, innov, H, R, x_out, P_out, S, K, PHt, W, RKt, L, A, y):
+    """Joseph update given the innovation; returns (nis, loglik, ok).
+
+    Scratch: PHt, W (n, m); RKt (m, n); L (m, m); A (n, n); y (m,).
+    """
+    n = x.shape[0]
+    m = innov.shape[0]
+    if m == 0:
+        for i in range(n):
+            x_out[i] = x[i]
+            for j in range(n):
+                P_out[i, j] = P[i, j]
+        return 0.0, 0.0, True
+    # PHt = P H^T
+    for i in range(n):
+        for j in range(m):
+            s = 0.0
+            for k in range(n):
+                s += P[i, k] * H[j, k]
+            PHt[i, j] = s
+    # S = H P H^T + R (symmetrised)
+    for i in range(m):
+        for j in range(i + 1):
+            s = 0.0
+            for k in range(n):
+                s += H[i, k] * PHt[k, j]
+            v = s + 0.5 * (R[i, j] + R[j, i])
+            S[i, j] = v
+            S[j, i] = v
+    if not cholesky_lower_kernel(S, L):
+        return np.nan, -np.inf, False
+    # K = PHt S^{-1}: solve L Y^T = PHt^T, then L^T K^T = Y^T (one reciprocal
+    # per pivot, all rows at once)
+    for j in range(m):
+        inv = 1.0 / L[j, j]
+        for i in range(n):
+            s = PHt[i, j]
+            for k in range(j):
+                s -= L[j, k] * K[i, k]
+            K[i, j] = s * inv
+    for j in range(m - 1, -1, -1):
+        inv = 1.0 / L[j, j]
+        for i in range(n):
+            s = K[i, j]
+            for k in range(j + 1, m):
+                s -= L[k, j] * K[i, k]
+            K[i, j] = s * inv
+    # NIS and log N(nu; 0, S) from the same factor: the arithmetic of
+    # core.logmath.cholesky_logpdf_kernel, inlined so whole-run kernels do not
+    # allocate per step (tests check the two agree).
+    nis = 0.0
+    det_half = 1.0
+    for j in range(m):
+        s = innov[j]
+        for k in range(j):
+            s -= L[j, k] * y[k]
+        y[j] = s / L[j, j]
+        nis += y[j] * y[j]
+        det_half *= L[j, j]
+    if det_half > 1e-280 and det_half < 1e280:
+        half_logdet = math.log(det_half)
+    else:  # guard against over/underflow of the product
+        half_logdet = 0.0
+        for j in range(m):
+            half_logdet += math.log(L[j, j])
+    loglik = -0.5 * (m * LOG_2PI + nis) - half_logdet
+    # x+ = x + K nu
+    for i in range(n):
+        s = x[i]
+        for j in range(m):
+            s += K[i, j] * innov[j]
+        x_out[i] = s
+    # Joseph form P+ = (I - K H) P (I - K H)^T + K R K^T, grouped as
+    #   A = (I - K H) P = P - K (P H^T)^T,   W = A H^T,
+    #   P+ = A - W K^T + K (R K^T)          (lower triangle, mirrored).
+    for i in range(n):
+        for j in range(n):
+            s = P[i, j]
+            for k in range(m):
+                s -= K[i, k] * PHt[j, k]
+            A[i, j] = s
+    for i in range(n):
+        for j in range(m):
+            s = 0.0
+            for k in range(n):
+                s += A[i, k] * H[j, k]
+            W[i, j] = s
+    for a in range(m):
+        for j in range(n):
+            t = 0.0
+            for b in range(m):
+                t += R[a, b] * K[j, b]
+            RKt[a, j] = t
+    for i in range(n):
+        for j in range(i + 1):
+            s = A[i, j]
+            for a in range(m):
+                s += K[i, a] * RKt[a, j] - W[i, a] * K[j, a]
+            P_out[i, j] = s
+            P_out[j, i] = s
+    return nis, loglik, True
+
+
+@nb.njit(cache=True)
+def _update_scratch(n, m):
+    return (np.empty((n, m)), np.empty((n, m)), np.empty((m, n)), np.empty((m, m)),
+            np.empty((n, n)), np.empty(m))
+
+
+@nb.njit(cache=True)
+def kf_update_kernel(x, P, z, H, R, x_out, P_out, innov, S, K):
+    """Joseph-form KF update into preallocated outputs.
+
+    ``innov`` (m,), ``S`` (m, m), ``K`` (n, m) are outputs too.  Returns
+    ``(nis, loglik, ok)``; ``ok`` is False when ``S`` is not positive definite.
+    """
+    n = x.shape[0]
+    m = z.shape[0]
+    for i in range(m):
+        s = z[i]
+        for k in range(n):
+            s -= H[i, k] * x[k]
+        innov[i] = s
+    PHt, W, RKt, L, A, y = _update_scratch(n, m)
+    return _update_into(x, P, innov, H, R, x_out, P_out, S, K, PHt, W, RKt, L, A, y)
+
+
+@nb.njit(cache=True)
+def kalman_filter_run_kernel(zs, x0, P0, F, Q, H, R, xs, Ps, nis, loglik):
+    """Predict-then-update over the rows of ``zs`` (K, m) into preallocated outputs.
+
+    A row whose first entry is NaN is a missed scan (prediction only; NIS NaN,
+    loglik 0).  Returns the index of the first scan whose ``S`` was not
+    positive definite, or -1.
+    """
+    n = x0.shape[0]
+    m = zs.shape[1]
+    xp = np.empty(n)
+    Pp = np.empty((n, n))
+    FP = np.empty((n, n))
+    innov = np.empty(m)
+    S = np.empty((m, m))
+    K = np.empty((n, m))
+    PHt, W, RKt, L, A, y = _update_scratch(n, m)
+    for k in range(zs.shape[0]):
+        if k == 0:
+            _predict_into(x0, P0, F, Q, xp, Pp, FP)
+        else:
+            _predict_into(xs[k - 1], Ps[k - 1], F, Q, xp, Pp, FP)
+        xk = xs[k]
+        Pk = Ps[k]
+        if m > 0 and math.isnan(zs[k, 0]):
+            for i in range(n):
+                xk[i] = xp[i]
+                for j in range(n):
+                    Pk[i, j] = Pp[i, j]
+            nis[k] = np.nan
+            loglik[k] = 0.0
+        else:
+            for i in range(m):
+                s = zs[k, i]
+                for j in range(n):
+                    s -= H[i, j] * xp[j]
+                innov[i] = s
+            v, ll, ok = _update_into(xp, Pp, innov, H, R, xk, Pk, S, K, PHt, W, RKt, L, A, y)
+            if not ok:
+                return k
+            nis[k] = v
+            loglik[k] = ll
+    return -1
+
+
+# ---------------------------------------------------------------------- wrappers
+def _check_state(x, P):
+    x = as_vector(x, "x")
+    n = x.shape[0]
+    if n == 0:
+        raise ValueError("x must not be empty")
+    P = as_covariance(P, "P", n)
+    return x, P, n
+
+
+def kf_predict(x, P, F, Q):
+    """Kalman prediction: returns ``(F x, F P F^T + Q)``."""
+    x, P, n = _check_state(x, P)
+    F = as_matrix(F, "F", (n, n))
+    Q = as_covariance(Q, "Q", n)
+    x_out = np.empty(n)
+    P_out = np.empty((n, n))
+    kf_predict_kernel(x, P, F, Q, x_out, P_out)
+    return GaussianEstimate(x_out, P_out)
+
+
+def _check_measurement(z, H, R, n, z_name="z"):
+    z = as_vector(z, z_name)
+    m = z.shape[0]
+    H = as_array(H, "H", ndim=2) if m == 0 else as_matrix(H, "H", (m, n))
+    if m == 0:
+        H = np.zeros((0, n))
+        R = np.zeros((0, 0))
+    else:
+        R = as_covariance(R, "R", m)
+    return z, H, R, m
+
+
+_NOT_PD = "innovation covariance S = H P H^T + R is not positive definite (check P and R)"
+
+
+def _finish_update(x, P, innov, H, R, n, m):
+    x_out = np.empty(n)
+    P_out = np.empty((n, n))
+    S = np.empty((m, m))
+    K = np.empty((n, m))
+    nis, loglik, ok = _update_into(x, P, innov, H, R, x_out, P_out, S, K,
+                                   *_update_scratch(n, m))
+    if not ok:
+        raise ValueError(_NOT_PD)
+    return KalmanUpdate(x_out, P_out, innov, S, K, float(nis), float(loglik))
+
+
+def kf_update(x, P, z, H, R):
+    """Joseph-form Kalman update with measurement ``z = H x + w``, ``w ~ N(0, R)``.
+
+    Returns :class:`KalmanUpdate`.  ``z`` of length 0 (empty scan) returns the
+    prior unchanged with ``nis = loglik = 0``.
+    """
+    x, P, n = _check_state(x, P)
+    z, H, R, m = _check_measurement(z, H, R, n)
+    x_out, P_out = np.empty(n), np.empty((n, n))
+    innov, S, K = np.empty(m), np.empty((m, m)), np.empty((n, m))
+    nis, loglik, ok = kf_update_kernel(x, P, z, H, R, x_out, P_out, innov, S, K)
+    if not ok:
+        raise ValueError(_NOT_PD)
+    return KalmanUpdate(x_out, P_out, innov, S, K, float(nis), float(loglik))
+
+
+def ekf_update(x, P, z, z_pred, H, R, angle_index=None):
+    """Extended Kalman update with a linearised measurement model.
+
+    ``z_pred = h(x)`` and ``H`` its Jacobian at ``x`` (computed by the caller,
+    e.g. :func:`trackcore.models.range_bearing`).  ``angle_index`` lists the
+    measurement components that are angles: their innovations are wrapped to
+    ``(-pi, pi]``.  Returns :class:`KalmanUpdate`.
+    """
+    x, P, n = _check_state(x, P)
+    z, H, R, m = _check_measurement(z, H, R, n)
+    z_pred = as_vector(z_pred, "z_pred", m)
+    innov = z - z_pred
+    if angle_index is not None:
+        idx = np.atleast_1d(np.asarray(angle_index))
+        if idx.size and (not np.issubdtype(idx.dtype, np.integer)):
+            raise TypeError(f"angle_index must hold integers, got dtype {idx.dtype}")
+        if idx.size and (idx.min() < -m or idx.max() >= m):
+            raise ValueError(f"angle_index entries must index the {m} measurement components, "
+                             f"got {idx.tolist()}")
+        for i in idx:
+            innov[i] = wrap_angle_kernel(innov[i])
+    return _finish_update(x, P, np.ascontiguousarray(innov), H, R, n, m)
+
+
+def kalman_filter_run(zs, x0, P0, F, Q, H, R):
+    """Run a linear Kalman filter over all scans in one numba kernel.
+
+    For each scan ``k``: predict with ``(F, Q)`` then update with ``zs[k]``
+    (same order as ``filterpy``'s ``predict(); update(z)``), starting from the
+    prior ``(x0, P0)`` at the time before the first scan.  ``zs`` is ``(K, m)``;
+    a row of NaN is a missed scan (prediction only).  Returns
+    :class:`KalmanRun` ``(xs (K, n), Ps (K, n, n), nis (K,), loglik (K,))``.
+    """
+    x0, P0, n = _check_state(x0, P0)
+    zs = as_array(zs, "zs", ndim=2, finite=False)
+    K, m = zs.shape
+    nan_rows = np.isnan(zs)
+    if np.any(nan_rows.any(axis=1) != nan_rows.all(axis=1)) or np.any(np.isinf(zs)):
+        raise ValueError("zs must be finite; a missed scan is a row that is entirely NaN")
+    F = as_matrix(F, "F", (n, n))
+    Q = as_covariance(Q, "Q", n)
+    H = as_matrix(H, "H", (m, n))
+    R = as_covariance(R, "R", m) if m else np.zeros((0, 0))
+    xs = np.empty((K, n))
+    Ps = np.empty((K, n, n))
+    nis = np.empty(K)
+    loglik = np.empty(K)
+    bad = kalman_filter_run_kernel(zs, x0, P0, F, Q, H, R, xs, Ps, nis, loglik)
+    if bad >= 0:
+        raise ValueError(f"innovation covariance S is not positive definite at scan {bad}")
+    return KalmanRun(xs, Ps, nis, loglik)
