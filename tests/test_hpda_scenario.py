@@ -1,0 +1,118 @@
+"""Tests for trackcore.scenarios.hpda_scenario (Kim & Song 2007, Table 1)."""
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from trackcore.scenarios import (HPDA_TABLE1, hpda_parameters, hpda_true_count, hpda_truth,
+                                 simulate_hpda_scans)
+
+# spec section 5.1: death states, CV variant (A) and manoeuvring variant (B)
+DEATH_A = [(0, -3000), (2500, 2500), (-3750, 2500), (500, -1000), (1750, 1750), (4000, -3000)]
+DEATH_B = [(-1712.7, -2179.0, -0.228, 1.788), (213.7, 2275.7, -0.832, -1.144),
+           (-3236.1, 4619.0, 0.868, 0.704), (-1279.3, -769.9, -1.021, -0.720),
+           (3114.9, 1274.4, 0.333, -2.095), (2515.8, -1886.3, -1.458, -0.353)]
+TURNS = [(63.6, 91, 110), (81.0, 216, 235), (102.5, 266, 285), (91.7, 341, 360),
+         (54.0, 366, 385), (76.4, 241, 260)]
+
+
+def test_truth_variant_a_and_b_death_states():
+    a, b = hpda_truth("A"), hpda_truth("B")
+    for t in range(6):
+        d = a.deaths[t]
+        np.testing.assert_allclose(a.states[d, t, :2], DEATH_A[t], atol=1e-6)
+        np.testing.assert_allclose(b.states[d, t], DEATH_B[t], atol=0.06)
+        # birth state is Table 1's
+        np.testing.assert_array_equal(b.states[b.births[t], t], HPDA_TABLE1[t][3])
+
+
+def test_turns_and_speed_preserved():
+    b = hpda_truth("B")
+    for t, (deg, k0, k1) in enumerate(TURNS):
+        turn = np.nonzero(b.modes[:, t] > 1)[0]
+        assert (turn[0], turn[-1]) == (k0, k1)
+        v0 = b.states[b.births[t], t, 2:]
+        v1 = b.states[b.deaths[t], t, 2:]
+        ang = math.degrees(math.atan2(v1[1], v1[0]) - math.atan2(v0[1], v0[0]))
+        ang = (ang + 180) % 360 - 180
+        assert abs(abs(ang) - deg) < 0.1
+        assert (ang > 0) == (t % 2 == 0)  # odd TID (index even) turns left
+        assert np.linalg.norm(v1) == pytest.approx(np.linalg.norm(v0), rel=1e-12)
+        # acceleration magnitude a_m during the turn (E2)
+        dv = np.linalg.norm(b.states[k0, t, 2:] - b.states[k0 - 1, t, 2:]) / 10.0
+        assert dv == pytest.approx(0.01, rel=1e-3)
+
+
+def test_true_count_change_points():
+    n = hpda_true_count(hpda_truth())
+    assert n.shape == (451,)
+    changes = {int(k): int(n[k]) for k in np.nonzero(np.diff(n))[0] + 1}
+    assert changes == {100: 2, 150: 4, 201: 3, 250: 4, 300: 5, 351: 3, 401: 2}
+    assert n[0] == 1 and n.mean() == pytest.approx(2.785, abs=5e-4)
+    assert np.isnan(hpda_truth().states[~hpda_truth().alive]).all()
+
+
+def test_parameters():
+    p1, p2 = hpda_parameters(1), hpda_parameters(2)
+    assert (p1.pd, p1.snr, p1.clutter_mean) == (0.9, 10.0, 10.0)
+    assert (p2.pd, p2.snr, p2.clutter_mean) == (0.6, 5.0, 50.0)
+    assert p1.tau == pytest.approx(1.159, abs=5e-4) and p2.tau == pytest.approx(3.065, abs=5e-4)
+    assert p1.clutter_density_xy == pytest.approx(3.18e-8, rel=2e-3)
+    with pytest.raises(ValueError, match="case"):
+        hpda_parameters(3)
+
+
+def test_measurement_statistics():
+    truth = hpda_truth()
+    p = hpda_parameters(2)
+    rng = np.random.default_rng(11)
+    s = simulate_hpda_scans(truth, p, rng)
+    K = 451
+    assert s.offsets.shape == (K + 1,) and s.offsets[-1] == s.z.shape[0] == s.amplitude.shape[0]
+    n_alive = truth.alive.sum()
+    n_det = (s.origin >= 0).sum()
+    assert abs(n_det / n_alive - 0.6) < 4 * math.sqrt(0.24 / n_alive)
+    n_cl = (s.origin < 0).sum()
+    assert abs(n_cl - 50 * K) < 4 * math.sqrt(50 * K)
+    assert s.amplitude.min() >= p.tau
+    assert np.all(s.z[:, 0] <= p.radius + 300) and np.all(np.abs(s.z[:, 1]) <= math.pi)
+    # clutter ranges ~ r^2 / R^2 uniform, amplitudes tau + Exp(1)
+    cl = s.origin < 0
+    assert stats.kstest((s.z[cl, 0] / p.radius) ** 2, "uniform").pvalue > 1e-3
+    assert stats.kstest(s.amplitude[cl] - p.tau, "expon").pvalue > 1e-3
+    assert stats.kstest(s.amplitude[~cl] - p.tau, "expon", args=(0, 6.0)).pvalue > 1e-3
+    # target measurement noise
+    k, t = np.nonzero(truth.alive)
+    idx = np.nonzero(s.origin >= 0)[0]
+    scans = np.searchsorted(s.offsets, idx, side="right") - 1
+    X = truth.states[scans, s.origin[idx]]
+    er = s.z[idx, 0] - np.hypot(X[:, 0], X[:, 1])
+    eb = (s.z[idx, 1] - np.arctan2(X[:, 1], X[:, 0]) + np.pi) % (2 * np.pi) - np.pi
+    assert abs(er.std() / 50 - 1) < 0.1 and abs(eb.std() / math.radians(0.1) - 1) < 0.1
+    z0, a0 = s.scan(0)
+    assert z0.shape[0] == a0.shape[0] == s.offsets[1]
+
+
+def test_deterministic_and_empty_scans():
+    truth = hpda_truth()
+    p = hpda_parameters(1)
+    s1 = simulate_hpda_scans(truth, p, np.random.default_rng(5))
+    s2 = simulate_hpda_scans(truth, p, np.random.default_rng(5))
+    np.testing.assert_array_equal(s1.z, s2.z)
+    # no clutter and P_D tiny: many empty scans are valid
+    from dataclasses import replace
+    q = replace(p, clutter_mean=0.0, pd=1e-6)
+    s = simulate_hpda_scans(truth, q, np.random.default_rng(1))
+    assert s.z.shape == (s.offsets[-1], 2) and np.sum(np.diff(s.offsets) == 0) > 400
+
+
+def test_bad_input():
+    with pytest.raises(ValueError, match="variant"):
+        hpda_truth("C")
+    with pytest.raises(TypeError, match="rng"):
+        simulate_hpda_scans(hpda_truth(), hpda_parameters(1), 3)
+    with pytest.raises(TypeError, match="params"):
+        simulate_hpda_scans(hpda_truth(), {"pd": 0.9}, np.random.default_rng())
+    with pytest.raises(ValueError, match="T"):
+        hpda_truth(T=-1)
