@@ -1,0 +1,158 @@
+"""Tests for trackcore.trackers.sprt_discriminator (hypothesis-matched EKFs, eqs 19-25)."""
+import math
+
+import numpy as np
+import pytest
+
+from trackcore.filters import ekf_update, kf_predict
+from trackcore.models import (cv_process_noise, cv_transition, modified_polar_F, modified_polar_f,
+                              modified_polar_Q, range_bearing_doppler,
+                              range_bearing_doppler_jacobian)
+from trackcore.scenarios import sprt_acm_measurements, sprt_acm_scenario, sprt_acm_truth
+from trackcore.trackers import SprtAcmFilterConfig, sprt_acm_discriminate, sprt_acm_llr
+
+
+@pytest.fixture(scope="module")
+def run_data():
+    sc = sprt_acm_scenario(1)
+    truth = sprt_acm_truth(sc)
+    z = sprt_acm_measurements(sc, np.random.default_rng(5), truth)
+    return sc, truth, z
+
+
+def reference(z, truth, T, cfg):
+    """Independent Python route through the foundation's public EKF functions."""
+    Phi = cv_transition(T)
+    Qa = cv_process_noise(T, cfg.sigma_v**2, kind="cwna")
+    Ra = np.diag([cfg.sigma_r**2, cfg.sigma_theta**2, cfg.sigma_rdot**2])
+    Rb = np.array([[cfg.sigma_theta**2]])
+    own = truth.own
+    n0 = truth.n_pre
+
+    def u_a(j):
+        return np.r_[own[j, :2] - own[j - 1, :2] - T * own[j - 1, 2:], own[j, 2:] - own[j - 1, 2:]]
+
+    def tupdate(x, P, zz):
+        up = ekf_update(x, P, zz, range_bearing_doppler(x), range_bearing_doppler_jacobian(x), Ra,
+                        angle_index=1)
+        return up.x, up.P, up.loglik + 1.5 * math.log(2 * math.pi), up.nis
+
+    x = np.array([z.z_pre[0, 0] * math.cos(z.z_pre[0, 1]), z.z_pre[0, 0] * math.sin(z.z_pre[0, 1]),
+                  0, 0])
+    P = np.diag([cfg.init_pos_std**2] * 2 + [cfg.init_vel_std**2] * 2)
+    for i in range(1, n0):
+        x, P = kf_predict(x, P, Phi, Qa)
+        x, P, _, _ = tupdate(x - u_a(i), P, z.z_pre[i])
+    xp, Pp = kf_predict(x, P, Phi, Qa)
+    xp = xp - u_a(n0)
+    K = z.z_a.shape[0]
+    lam = np.zeros((K, 4))
+    nis = np.full((K, 4), np.nan)
+    tgt = {0: (xp, Pp), 3: (xp, Pp)}
+    acm = {}
+    acc = np.zeros(4)
+    for k in range(K):
+        j = n0 + k
+        for col, zz in ((0, z.z_a[k]), (3, z.z_b[k])):
+            x, P = tgt[col]
+            if k > 0:
+                x, P = kf_predict(x, P, Phi, Qa)
+                x = x - u_a(j)
+            x, P, ll, v = tupdate(x, P, zz)
+            tgt[col] = (x, P)
+            acc[col] += ll
+            nis[k, col] = v
+        for col, zz in ((1, z.z_b[k]), (2, z.z_a[k])):
+            if k == 0:
+                acm[col] = (np.array([zz[1], 1 / zz[0]]),
+                            np.diag([cfg.sigma_theta**2, (cfg.beta_std_factor / zz[0])**2]))
+                continue
+            x, P = acm[col]
+            ub = own[j, :2] - own[j - 1, :2]
+            F = modified_polar_F(x, ub)
+            Pp2 = F @ P @ F.T + modified_polar_Q(x, T, cfg.sigma_p)
+            xp2 = modified_polar_f(x, ub)
+            up = ekf_update(xp2, Pp2, zz[1:2], xp2[:1], np.array([[1.0, 0.0]]), Rb, angle_index=0)
+            acm[col] = (up.x, up.P)
+            acc[col] += up.loglik + 0.5 * math.log(2 * math.pi)
+            nis[k, col] = up.nis
+        lam[k] = acc
+    return lam, nis
+
+
+@pytest.mark.parametrize("factor", [2.0, 0.5])
+def test_matches_foundation_route(run_data, factor):
+    sc, truth, z = run_data
+    cfg = SprtAcmFilterConfig(beta_std_factor=factor)
+    res = sprt_acm_discriminate(z.z_pre, z.z_a, z.z_b, truth.own, sc.T, cfg)
+    lam, nis = reference(z, truth, sc.T, cfg)
+    assert res.ok
+    np.testing.assert_allclose(res.lam, lam, rtol=1e-8, atol=1e-8)
+    np.testing.assert_allclose(res.nis, nis, rtol=1e-8, atol=1e-10)
+    np.testing.assert_allclose(res.llr, -lam[:, 0] - lam[:, 1] + lam[:, 2] + lam[:, 3], atol=1e-8)
+
+
+def test_structure_first_scan(run_data):
+    sc, truth, z = run_data
+    res = sprt_acm_discriminate(z.z_pre, z.z_a, z.z_b, truth.own, sc.T)
+    K = sc.n_post
+    assert res.lam.shape == (K, 4) and res.llr.shape == (K,) and res.beta.shape == (K, 2)
+    assert res.lam[0, 1] == 0.0 and res.lam[0, 2] == 0.0          # ACM filters start at k = 1
+    assert np.isnan(res.nis[0, 1]) and np.isnan(res.nis[0, 2])
+    assert np.all(np.isfinite(res.nis[1:]))
+    assert res.beta[0, 0] == pytest.approx(1 / z.z_b[0, 0])
+    np.testing.assert_allclose(res.llr, sprt_acm_llr(res.lam))
+
+
+def test_swapping_tracks_negates_llr(run_data):
+    sc, truth, z = run_data
+    r1 = sprt_acm_discriminate(z.z_pre, z.z_a, z.z_b, truth.own, sc.T)
+    r2 = sprt_acm_discriminate(z.z_pre, z.z_b, z.z_a, truth.own, sc.T)
+    np.testing.assert_allclose(r2.llr, -r1.llr, atol=1e-10)
+    np.testing.assert_allclose(r2.lam[:, [3, 2, 1, 0]], r1.lam, atol=1e-10)
+
+
+def test_batch_equals_single(run_data):
+    sc, truth, z = run_data
+    zs = [sprt_acm_measurements(sc, np.random.default_rng(s), truth) for s in range(3)]
+    batch = sprt_acm_discriminate(np.stack([q.z_pre for q in zs]), np.stack([q.z_a for q in zs]),
+                                  np.stack([q.z_b for q in zs]), truth.own, sc.T)
+    assert batch.llr.shape == (3, sc.n_post) and batch.ok.all()
+    for i, q in enumerate(zs):
+        single = sprt_acm_discriminate(q.z_pre, q.z_a, q.z_b, truth.own, sc.T)
+        np.testing.assert_array_equal(single.llr, batch.llr[i])
+
+
+def test_empty_post_release(run_data):
+    sc, truth, z = run_data
+    own = truth.own[:truth.n_pre]
+    res = sprt_acm_discriminate(z.z_pre, np.zeros((0, 3)), np.zeros((0, 3)), own, sc.T)
+    assert res.llr.shape == (0,) and res.ok
+
+
+def test_bad_input(run_data):
+    sc, truth, z = run_data
+    args = [z.z_pre, z.z_a, z.z_b, truth.own, sc.T]
+    with pytest.raises(ValueError, match="z_a"):
+        sprt_acm_discriminate(z.z_pre, z.z_a[:, :2], z.z_b, truth.own, sc.T)
+    with pytest.raises(ValueError, match="z_b"):
+        sprt_acm_discriminate(z.z_pre, z.z_a, z.z_b[:-1], truth.own, sc.T)
+    with pytest.raises(ValueError, match="own_states"):
+        sprt_acm_discriminate(z.z_pre, z.z_a, z.z_b, truth.own[:-1], sc.T)
+    with pytest.raises(ValueError, match="z_pre"):
+        sprt_acm_discriminate(np.zeros((0, 3)), z.z_a, z.z_b, truth.own[truth.n_pre:], sc.T)
+    bad = z.z_a.copy()
+    bad[3, 0] = -1.0
+    with pytest.raises(ValueError, match="ranges"):
+        sprt_acm_discriminate(z.z_pre, bad, z.z_b, truth.own, sc.T)
+    bad[3, 0] = np.nan
+    with pytest.raises(ValueError, match="z_a"):
+        sprt_acm_discriminate(z.z_pre, bad, z.z_b, truth.own, sc.T)
+    with pytest.raises(ValueError, match="T"):
+        sprt_acm_discriminate(*args[:4], 0.0)
+    with pytest.raises(TypeError, match="config"):
+        sprt_acm_discriminate(*args, config={"sigma_r": 5})
+    with pytest.raises(ValueError, match="config.sigma_r"):
+        sprt_acm_discriminate(*args, config=SprtAcmFilterConfig(sigma_r=0.0))
+    with pytest.raises(ValueError, match="lam"):
+        sprt_acm_llr(np.zeros((3, 5)))

@@ -1,0 +1,288 @@
+"""Pursuer / target / acoustic-decoy (ACM) scenarios of Jeong & Hong (1996).
+
+The paper gives speeds, turns, the range at release and the scan interval but
+no geometry.  **The geometry is our choice** (spec sec. 6.2): at the release
+time the pursuer is at the origin and the target at ``(0, R0)``, so the line of
+sight (LOS) points due north; ``alpha`` is the target course and ``lead`` the
+pursuer course, both measured clockwise from the LOS (degrees).  Before the
+release both move in straight lines (positions at ``t = 0`` follow by
+back-propagation); turns start at the release, are to the right (clockwise)
+at the lateral acceleration ``turn_accel`` and last ``angle / (accel / speed)``
+seconds (61.2 s and 60.9 s in the paper).
+
+The ACM stays at the target's release position and answers each ping with a
+growing delay and a Doppler shift so that it looks like a point receding
+along the LOS at ``decoy_speed``:
+``z_r = r_acm + v_d (t - t_rel) + w_r``, ``z_theta = theta_acm + w_theta``,
+``z_rdot = rdot_acm + v_d + w_rdot``.
+
+Scans are at ``t = 0, T, ..., t_end``; post-release scan ``k = 1`` is at the
+release time.  Randomness only through an explicit ``numpy.random.Generator``;
+run ``i`` of a Monte Carlo batch uses ``default_rng(SeedSequence(seed).spawn(n)[i])``
+(same as :func:`trackcore.montecarlo.run`).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from ..core.rng import spawn_generators
+from ..core.validation import as_array, as_count, as_rng
+from ..models.measurement import range_bearing_doppler
+from ..models.motion import coordinated_turn_transition, cv_process_noise, cv_transition
+from ..trackers.sprt_discriminator import (SprtAcmDiscrimination, SprtAcmFilterConfig,
+                                           sprt_acm_discriminate)
+
+__all__ = [
+    "SprtAcmScenario",
+    "SprtAcmTruth",
+    "SprtAcmMeasurements",
+    "sprt_acm_scenario",
+    "sprt_acm_states",
+    "sprt_acm_truth",
+    "sprt_acm_measurements",
+    "sprt_acm_trial",
+    "sprt_acm_monte_carlo",
+    "sprt_acm_filter_config",
+]
+
+
+@dataclass(frozen=True)
+class SprtAcmScenario:
+    """Parameters of one scenario (angles in degrees, SI units otherwise)."""
+    name: str
+    T: float                       # scan interval (s)
+    R0: float                      # pursuer-target range at release (m)
+    alpha_deg: float               # target course, clockwise from the LOS (our choice)
+    lead_deg: float                # pursuer course, clockwise from the LOS (our choice)
+    gamma: float                   # paper's threshold gamma1 = -gamma0
+    target_turn_deg: float = 0.0   # right turn starting at release
+    pursuer_turn_deg: float = 0.0  # right turn starting at release
+    turn_accel: float = 10.0       # lateral acceleration in the turns (m/s^2)
+    target_speed: float = 15.4
+    pursuer_speed: float = 23.1
+    decoy_speed: float = 12.8      # apparent LOS speed of the ACM (> 0 receding)
+    t_release: float = 60.0
+    t_end: float = 90.0
+    sigma_r: float = 5.0           # sensor noise std: range (m)
+    sigma_theta: float = 0.035     # bearing (rad)
+    sigma_rdot: float = 1.0        # range rate (m/s)
+    target_accel_psd: float = 0.0  # > 0: random CWNA acceleration added to the target truth
+
+    def __post_init__(self):
+        for f in ("T", "R0", "target_speed", "pursuer_speed", "t_release", "sigma_r",
+                  "sigma_theta", "sigma_rdot", "gamma"):
+            v = getattr(self, f)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"{f} must be a finite number > 0, got {v!r}")
+        for f in ("alpha_deg", "lead_deg", "target_turn_deg", "pursuer_turn_deg", "decoy_speed"):
+            v = getattr(self, f)
+            if not (isinstance(v, (int, float)) and math.isfinite(v)):
+                raise ValueError(f"{f} must be a finite number, got {v!r}")
+        if not (math.isfinite(self.target_accel_psd) and self.target_accel_psd >= 0):
+            raise ValueError(f"target_accel_psd must be >= 0, got {self.target_accel_psd!r}")
+        if not self.turn_accel > 0:
+            raise ValueError(f"turn_accel must be > 0, got {self.turn_accel!r}")
+        n_pre = self.t_release / self.T
+        n_post = (self.t_end - self.t_release) / self.T
+        if abs(n_pre - round(n_pre)) > 1e-9 or abs(n_post - round(n_post)) > 1e-9 \
+                or n_post < 0:
+            raise ValueError("t_release and t_end - t_release must be non-negative multiples "
+                             f"of T, got T={self.T}, t_release={self.t_release}, "
+                             f"t_end={self.t_end}")
+
+    @property
+    def n_pre(self) -> int:
+        """Number of pre-release scans (t = 0 .. t_release - T)."""
+        return int(round(self.t_release / self.T))
+
+    @property
+    def n_post(self) -> int:
+        """Number of post-release scans k = 1..K (t = t_release .. t_end)."""
+        return int(round((self.t_end - self.t_release) / self.T)) + 1
+
+
+_PAPER = {
+    1: dict(name="S1", T=2.0, R0=1000.0, alpha_deg=45.0, lead_deg=0.0,
+            gamma=math.log(19.0)),
+    2: dict(name="S2", T=2.0, R0=1000.0, alpha_deg=7.5, lead_deg=-15.0, gamma=5.3,
+            target_turn_deg=45.0, pursuer_turn_deg=22.5),
+    3: dict(name="S3", T=1.0, R0=400.0, alpha_deg=7.5, lead_deg=-15.0, gamma=5.3,
+            target_turn_deg=45.0, pursuer_turn_deg=22.5),
+}
+
+
+def sprt_acm_scenario(number, **changes):
+    """Scenario 1, 2 or 3 of the paper with our geometry (spec sec. 6.2).
+
+    S1: constant velocity, G-A geometry (alpha = 45 deg, lead = 0), T = 2 s,
+    gamma = ln 19.  S2: target turns 45 deg right, pursuer 22.5 deg right at
+    release, G-B geometry (alpha = 7.5 deg, lead = -15 deg), T = 2 s,
+    gamma = 5.3.  S3: S2 at R0 = 400 m with T = 1 s.  Keyword ``changes``
+    override any field (e.g. ``alpha_deg=30``).
+    """
+    if isinstance(number, bool) or number not in _PAPER:
+        raise ValueError(f"number must be 1, 2 or 3, got {number!r}")
+    params = dict(_PAPER[number])
+    unknown = set(changes) - {f.name for f in dataclasses.fields(SprtAcmScenario)}
+    if unknown:
+        raise TypeError(f"unknown scenario field(s): {sorted(unknown)}")
+    params.update(changes)
+    return SprtAcmScenario(**params)
+
+
+def _course_vector(speed, course_deg):
+    c = math.radians(course_deg)    # clockwise from north (+y)
+    return np.array([speed * math.sin(c), speed * math.cos(c)])
+
+
+def _vehicle(p_rel, v_rel, turn_deg, speed, accel, t_rel, t):
+    """States [x, y, vx, vy] at times t: straight before t_rel, right turn, straight."""
+    omega = -accel / speed                          # right turn: clockwise
+    dur = math.radians(abs(turn_deg)) / (accel / speed)
+    if turn_deg < 0:
+        omega = -omega
+    s0 = np.concatenate([p_rel, v_rel])
+    s_end = coordinated_turn_transition(omega, dur) @ s0
+    out = np.empty((t.size, 4))
+    for i, ti in enumerate(t):
+        dt = ti - t_rel
+        if dt <= 0.0:
+            out[i] = [p_rel[0] + v_rel[0] * dt, p_rel[1] + v_rel[1] * dt, v_rel[0], v_rel[1]]
+        elif dt <= dur:
+            out[i] = coordinated_turn_transition(omega, dt) @ s0
+        else:
+            d2 = dt - dur
+            out[i] = [s_end[0] + s_end[2] * d2, s_end[1] + s_end[3] * d2, s_end[2], s_end[3]]
+    return out
+
+
+def sprt_acm_states(scenario, t):
+    """True pursuer and target states ``[x, y, vx, vy]`` at times ``t``.
+
+    Returns ``(own (n, 4), target (n, 4), acm (2,))``; the ACM is the target's
+    release position.
+    """
+    if not isinstance(scenario, SprtAcmScenario):
+        raise TypeError(f"scenario must be an SprtAcmScenario, got {type(scenario).__name__}")
+    t = as_array(t, "t", ndim=1)
+    sc = scenario
+    own = _vehicle(np.zeros(2), _course_vector(sc.pursuer_speed, sc.lead_deg),
+                   sc.pursuer_turn_deg, sc.pursuer_speed, sc.turn_accel, sc.t_release, t)
+    tgt = _vehicle(np.array([0.0, sc.R0]), _course_vector(sc.target_speed, sc.alpha_deg),
+                   sc.target_turn_deg, sc.target_speed, sc.turn_accel, sc.t_release, t)
+    return own, tgt, np.array([0.0, sc.R0])
+
+
+class SprtAcmTruth(NamedTuple):
+    """True states at the scan times."""
+    times: np.ndarray    # (n_pre + K,) scan times (s)
+    own: np.ndarray      # (n_pre + K, 4) pursuer
+    target: np.ndarray   # (n_pre + K, 4) target
+    acm: np.ndarray      # (2,) ACM position
+    n_pre: int           # scans before release
+
+
+def sprt_acm_truth(scenario):
+    """Truth at the scan times ``0, T, ..., t_end``."""
+    if not isinstance(scenario, SprtAcmScenario):
+        raise TypeError(f"scenario must be an SprtAcmScenario, got {type(scenario).__name__}")
+    n = scenario.n_pre + scenario.n_post
+    times = scenario.T * np.arange(n)
+    own, tgt, acm = sprt_acm_states(scenario, times)
+    return SprtAcmTruth(times, own, tgt, acm, scenario.n_pre)
+
+
+class SprtAcmMeasurements(NamedTuple):
+    """One run's measurements ``(r, theta, rdot)``."""
+    z_pre: np.ndarray    # (n_pre, 3) target before release
+    z_a: np.ndarray      # (K, 3) track a (target under H0)
+    z_b: np.ndarray      # (K, 3) track b (ACM under H0)
+
+
+def _acm_noiseless(scenario, truth, acm):
+    post = slice(truth.n_pre, None)
+    own = truth.own[post]
+    d = acm[None, :] - own[:, :2]
+    r = np.hypot(d[:, 0], d[:, 1])
+    rdot = -(own[:, 2] * d[:, 0] + own[:, 3] * d[:, 1]) / r
+    tau = truth.times[post] - scenario.t_release
+    return np.stack([r + scenario.decoy_speed * tau, np.arctan2(d[:, 1], d[:, 0]),
+                     rdot + scenario.decoy_speed], axis=1)
+
+
+def sprt_acm_measurements(scenario, rng, truth=None, h1_true=False):
+    """Simulate one run's measurements.
+
+    Draw order (fixed): [target process noise if ``target_accel_psd > 0``],
+    pre-release target noise, post-release target noise, ACM noise.
+    ``h1_true`` swaps the tracks (a = ACM, b = target).  With
+    ``target_accel_psd > 0`` the target truth is the nominal trajectory plus a
+    random deviation that follows the filter's own CWNA model (eq 12) after the
+    release (used to check filter consistency).
+    """
+    rng = as_rng(rng)
+    truth = sprt_acm_truth(scenario) if truth is None else truth
+    sig = np.array([scenario.sigma_r, scenario.sigma_theta, scenario.sigma_rdot])
+    target, acm = truth.target, truth.acm
+    if scenario.target_accel_psd > 0:
+        n, n0 = target.shape[0], truth.n_pre
+        L = np.linalg.cholesky(cv_process_noise(scenario.T, scenario.target_accel_psd, 2,
+                                                kind="cwna"))
+        F = cv_transition(scenario.T, 2)
+        w = rng.standard_normal((n - n0 - 1, 4)) @ L.T
+        dev = np.zeros((n, 4))
+        for i in range(n0 + 1, n):
+            dev[i] = F @ dev[i - 1] + w[i - n0 - 1]
+        target = target + dev
+    rel = target - truth.own
+    z_t = range_bearing_doppler(rel)
+    n_pre = truth.n_pre
+    z_pre = z_t[:n_pre] + rng.standard_normal((n_pre, 3)) * sig
+    z_tgt = z_t[n_pre:] + rng.standard_normal((z_t.shape[0] - n_pre, 3)) * sig
+    z_acm = _acm_noiseless(scenario, truth, acm)
+    z_acm = z_acm + rng.standard_normal(z_acm.shape) * sig
+    if h1_true:
+        return SprtAcmMeasurements(z_pre, z_acm, z_tgt)
+    return SprtAcmMeasurements(z_pre, z_tgt, z_acm)
+
+
+def sprt_acm_filter_config(scenario, **changes):
+    """Filter parameters matched to the scenario's sensor noise (paper values otherwise)."""
+    cfg = SprtAcmFilterConfig(sigma_r=scenario.sigma_r, sigma_theta=scenario.sigma_theta,
+                              sigma_rdot=scenario.sigma_rdot)
+    return cfg._replace(**changes)
+
+
+def sprt_acm_trial(rng, scenario, config=None, h1_true=False):
+    """One Monte Carlo run (for :func:`trackcore.montecarlo.run`): the matched-filter outputs."""
+    truth = sprt_acm_truth(scenario)
+    z = sprt_acm_measurements(scenario, rng, truth, h1_true=h1_true)
+    cfg = sprt_acm_filter_config(scenario) if config is None else config
+    return sprt_acm_discriminate(z.z_pre, z.z_a, z.z_b, truth.own, scenario.T, cfg)
+
+
+def sprt_acm_monte_carlo(scenario, n_runs, seed, config=None, h1_true=False):
+    """``n_runs`` runs in one batch kernel; run ``i`` identical to ``sprt_acm_trial`` with
+    ``default_rng(SeedSequence(seed).spawn(n_runs)[i])``.  Returns a batched
+    :class:`trackcore.trackers.SprtAcmDiscrimination`.
+    """
+    if not isinstance(scenario, SprtAcmScenario):
+        raise TypeError(f"scenario must be an SprtAcmScenario, got {type(scenario).__name__}")
+    n_runs = as_count(n_runs, "n_runs")
+    truth = sprt_acm_truth(scenario)
+    K, n_pre = scenario.n_post, scenario.n_pre
+    zp = np.empty((n_runs, n_pre, 3))
+    za = np.empty((n_runs, K, 3))
+    zb = np.empty((n_runs, K, 3))
+    for i, g in enumerate(spawn_generators(seed, n_runs)):
+        zp[i], za[i], zb[i] = sprt_acm_measurements(scenario, g, truth, h1_true=h1_true)
+    cfg = sprt_acm_filter_config(scenario) if config is None else config
+    if n_runs == 0:
+        return SprtAcmDiscrimination(np.zeros((0, K, 4)), np.zeros((0, K)), np.zeros((0, K, 4)),
+                                     np.zeros((0, K, 2)), np.zeros(0, dtype=bool))
+    return sprt_acm_discriminate(zp, za, zb, truth.own, scenario.T, cfg)
