@@ -1,0 +1,369 @@
+"""Interacting Multiple Model (IMM) estimator for linear-Gaussian modes.
+
+One cycle (Bar-Shalom, Li & Kirubarajan 2001, sec. 11.6.6), with ``r`` modes,
+Markov transition matrix ``PI[i, j] = P(mode j at k | mode i at k-1)``:
+
+1. mixing (:func:`imm_mix`): predicted mode probabilities
+   ``c_bar_j = sum_i PI_ij mu_i``, mixing weights ``mu_{i|j} = PI_ij mu_i / c_bar_j``,
+   mixed initial conditions ``x0_j = sum_i mu_{i|j} x_i`` and
+   ``P0_j = sum_i mu_{i|j} (P_i + (x_i - x0_j)(x_i - x0_j)^T)``;
+2. mode-matched Kalman prediction and Joseph-form update (``trackcore.filters.kalman``);
+3. mode probabilities (:func:`imm_mode_update`), in log space:
+   ``log mu_j = log c_bar_j + log Lambda_j - logsumexp(...)``, so they stay
+   finite when every likelihood underflows;
+4. combination (:func:`imm_combine`) into one Gaussian for output.
+
+:func:`imm_step` is one cycle (the same as filterpy's ``IMMEstimator.predict()``
+followed by ``update(z)``); :func:`imm_filter_run` runs all scans in one numba
+kernel.  All modes share the state dimension and the measurement model.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numba as nb
+import numpy as np
+
+from ..core.logmath import logsumexp_kernel
+from ..core.validation import as_array, as_covariance, as_matrix, as_vector
+from .kalman import GaussianEstimate, _predict_into, _update_into, _update_scratch
+
+__all__ = [
+    "IMMStep",
+    "IMMRun",
+    "imm_mix",
+    "imm_mode_update",
+    "imm_combine",
+    "imm_step",
+    "imm_filter_run",
+    "imm_mix_kernel",
+    "imm_mode_update_kernel",
+    "imm_combine_kernel",
+    "imm_filter_run_kernel",
+]
+
+
+class IMMStep(NamedTuple):
+    """Result of one IMM cycle."""
+    xs: np.ndarray       # (r, n) mode-matched posterior means
+    Ps: np.ndarray       # (r, n, n) mode-matched posterior covariances
+    mu: np.ndarray       # (r,) posterior mode probabilities
+    x: np.ndarray        # (n,) combined mean
+    P: np.ndarray        # (n, n) combined covariance
+    logliks: np.ndarray  # (r,) log N(nu_j; 0, S_j) of each mode
+
+
+class IMMRun(NamedTuple):
+    """Result of :func:`imm_filter_run` over K scans."""
+    x: np.ndarray       # (K, n) combined posterior means
+    P: np.ndarray       # (K, n, n) combined posterior covariances
+    mu: np.ndarray      # (K, r) mode probabilities
+    loglik: np.ndarray  # (K,) log p(z_k | z_1..z_{k-1}) (0 for a missed scan)
+
+
+# ---------------------------------------------------------------------- kernels
+@nb.njit(cache=True)
+def imm_mix_kernel(mu, PI, xs, Ps, x0s, P0s, c_bar):
+    """Mixing step into preallocated ``x0s`` (r, n), ``P0s`` (r, n, n), ``c_bar`` (r,).
+
+    A mode with ``c_bar_j = 0`` (unreachable) keeps its own estimate.
+    """
+    r = mu.shape[0]
+    n = xs.shape[1]
+    for j in range(r):
+        c = 0.0
+        for i in range(r):
+            c += PI[i, j] * mu[i]
+        c_bar[j] = c
+    for j in range(r):
+        c = c_bar[j]
+        if c <= 0.0:
+            for a in range(n):
+                x0s[j, a] = xs[j, a]
+                for b in range(n):
+                    P0s[j, a, b] = Ps[j, a, b]
+            continue
+        for a in range(n):
+            x0s[j, a] = 0.0
+            for b in range(n):
+                P0s[j, a, b] = 0.0
+        for i in range(r):
+            w = PI[i, j] * mu[i] / c
+            for a in range(n):
+                x0s[j, a] += w * xs[i, a]
+        for i in range(r):
+            w = PI[i, j] * mu[i] / c
+            if w == 0.0:
+                continue
+            for a in range(n):
+                da = xs[i, a] - x0s[j, a]
+                for b in range(a + 1):
+                    P0s[j, a, b] += w * (Ps[i, a, b] + da * (xs[i, b] - x0s[j, b]))
+        for a in range(n):
+            for b in range(a):
+                P0s[j, b, a] = P0s[j, a, b]
+
+
+@nb.njit(cache=True)
+def imm_mode_update_kernel(c_bar, logliks, mu_out):
+    """Posterior mode probabilities into ``mu_out``; returns log sum_j c_bar_j Lambda_j.
+
+    Returns ``-inf`` (and leaves ``mu_out`` undefined) if no mode has mass.
+    """
+    r = c_bar.shape[0]
+    for j in range(r):
+        if c_bar[j] > 0.0:
+            mu_out[j] = math.log(c_bar[j]) + logliks[j]
+        else:
+            mu_out[j] = -np.inf
+    total = logsumexp_kernel(mu_out)
+    if total == -np.inf or math.isnan(total):
+        return -np.inf
+    for j in range(r):
+        mu_out[j] = math.exp(mu_out[j] - total)
+    return total
+
+
+@nb.njit(cache=True)
+def imm_combine_kernel(mu, xs, Ps, x, P):
+    """Moment-matched combination into preallocated ``x`` (n,), ``P`` (n, n)."""
+    r = mu.shape[0]
+    n = xs.shape[1]
+    for a in range(n):
+        s = 0.0
+        for j in range(r):
+            s += mu[j] * xs[j, a]
+        x[a] = s
+    for a in range(n):
+        for b in range(a + 1):
+            s = 0.0
+            for j in range(r):
+                s += mu[j] * (Ps[j, a, b] + (xs[j, a] - x[a]) * (xs[j, b] - x[b]))
+            P[a, b] = s
+            P[b, a] = s
+
+
+@nb.njit(cache=True)
+def _imm_cycle(xs, Ps, mu, PI, Fs, Qs, z, missed, H, R, x0s, P0s, c_bar, xp, Pp, FP,
+               innov, S, K, PHt, W, RKt, L, A, y, logliks, mu_out):
+    """One IMM cycle in place on ``xs``, ``Ps``; returns (total loglik, failed mode or -1)."""
+    r = mu.shape[0]
+    n = xs.shape[1]
+    m = z.shape[0]
+    imm_mix_kernel(mu, PI, xs, Ps, x0s, P0s, c_bar)
+    for j in range(r):
+        _predict_into(x0s[j], P0s[j], Fs[j], Qs[j], xp, Pp, FP)
+        if missed or m == 0:
+            for a in range(n):
+                xs[j, a] = xp[a]
+                for b in range(n):
+                    Ps[j, a, b] = Pp[a, b]
+            logliks[j] = 0.0
+        else:
+            for i in range(m):
+                s = z[i]
+                for a in range(n):
+                    s -= H[i, a] * xp[a]
+                innov[i] = s
+            nis, ll, ok = _update_into(xp, Pp, innov, H, R, xs[j], Ps[j], S, K, PHt, W, RKt,
+                                       L, A, y)
+            if not ok:
+                return -np.inf, j
+            logliks[j] = ll
+    total = imm_mode_update_kernel(c_bar, logliks, mu_out)
+    if total == -np.inf:
+        return total, r
+    return total, -1
+
+
+@nb.njit(cache=True)
+def imm_filter_run_kernel(zs, xs0, Ps0, mu0, PI, Fs, Qs, H, R, x_out, P_out, mu_out,
+                          loglik_out):
+    """IMM over the rows of ``zs`` (K, m) into preallocated outputs.
+
+    A row whose first entry is NaN is a missed scan.  Returns ``(k, j)``: the
+    scan and mode where ``S`` was not positive definite (``j = r`` when every
+    mode lost its mass), or ``(-1, -1)``.
+    """
+    r, n = xs0.shape
+    m = zs.shape[1]
+    xs = xs0.copy()
+    Ps = Ps0.copy()
+    mu = mu0.copy()
+    x0s = np.empty((r, n))
+    P0s = np.empty((r, n, n))
+    c_bar = np.empty(r)
+    xp = np.empty(n)
+    Pp = np.empty((n, n))
+    FP = np.empty((n, n))
+    innov = np.empty(m)
+    S = np.empty((m, m))
+    K = np.empty((n, m))
+    PHt, W, RKt, L, A, y = _update_scratch(n, m)
+    logliks = np.empty(r)
+    mu_new = np.empty(r)
+    for k in range(zs.shape[0]):
+        missed = m > 0 and math.isnan(zs[k, 0])
+        total, bad = _imm_cycle(xs, Ps, mu, PI, Fs, Qs, zs[k], missed, H, R, x0s, P0s, c_bar,
+                                xp, Pp, FP, innov, S, K, PHt, W, RKt, L, A, y, logliks,
+                                mu_new)
+        if bad >= 0:
+            return k, bad
+        for j in range(r):
+            mu[j] = mu_new[j]
+            mu_out[k, j] = mu_new[j]
+        loglik_out[k] = 0.0 if missed else total
+        imm_combine_kernel(mu, xs, Ps, x_out[k], P_out[k])
+    return -1, -1
+
+
+# ---------------------------------------------------------------------- wrappers
+def _check_mu(mu, name="mu", r=None):
+    mu = as_vector(mu, name, r)
+    if mu.size == 0:
+        raise ValueError(f"{name} must not be empty")
+    if np.any(mu < 0) or abs(mu.sum() - 1.0) > 1e-9:
+        raise ValueError(f"{name} must be a probability vector (entries >= 0 summing to 1), "
+                         f"got sum {mu.sum():.12g}")
+    return mu
+
+
+def _check_PI(PI, r):
+    PI = as_matrix(PI, "PI", (r, r))
+    if np.any(PI < 0) or np.any(PI > 1):
+        raise ValueError("PI must contain probabilities in [0, 1]")
+    if np.any(np.abs(PI.sum(axis=1) - 1.0) > 1e-9):
+        raise ValueError(f"PI rows must sum to 1 (row sums {PI.sum(axis=1).tolist()})")
+    return PI
+
+
+def _check_modes(xs, Ps, r=None):
+    xs = as_array(xs, "xs", ndim=2)
+    r_, n = xs.shape
+    if r is not None and r_ != r:
+        raise ValueError(f"xs must have {r} rows (one per mode), got shape {xs.shape}")
+    if n == 0 or r_ == 0:
+        raise ValueError(f"xs must be a non-empty (r, n) array, got shape {xs.shape}")
+    Ps = as_array(Ps, "Ps", shape=(r_, n, n))
+    Ps = np.ascontiguousarray(np.stack([as_covariance(Ps[j], f"Ps[{j}]", n) for j in range(r_)]))
+    return xs, Ps, r_, n
+
+
+def _check_stack(M, name, r, n, covariance):
+    M = as_array(M, name, shape=(r, n, n))
+    if covariance:
+        M = np.ascontiguousarray(np.stack([as_covariance(M[j], f"{name}[{j}]", n)
+                                           for j in range(r)]))
+    return M
+
+
+def imm_mix(mu, PI, xs, Ps):
+    """IMM mixing step.  Returns ``(x0s (r, n), P0s (r, n, n), c_bar (r,))``.
+
+    ``c_bar`` are the predicted mode probabilities ``mu @ PI``.
+    """
+    xs, Ps, r, n = _check_modes(xs, Ps)
+    mu = _check_mu(mu, "mu", r)
+    PI = _check_PI(PI, r)
+    x0s, P0s, c_bar = np.empty((r, n)), np.empty((r, n, n)), np.empty(r)
+    imm_mix_kernel(mu, PI, xs, Ps, x0s, P0s, c_bar)
+    return x0s, P0s, c_bar
+
+
+def imm_mode_update(c_bar, logliks):
+    """Posterior mode probabilities from predicted ones and log-likelihoods.
+
+    Computed in log space: stable when every likelihood underflows (e.g.
+    ``logliks = [-2000, -2001]``).  ``logliks`` entries may be ``-inf``
+    (impossible mode) but not all modes may have zero mass.
+    """
+    c_bar = _check_mu(c_bar, "c_bar")
+    r = c_bar.shape[0]
+    ll = as_vector(logliks, "logliks", r, finite=False)
+    if np.any(np.isnan(ll)) or np.any(ll == np.inf):
+        raise ValueError("logliks must not contain NaN or +inf")
+    mu = np.empty(r)
+    total = imm_mode_update_kernel(c_bar, ll, mu)
+    if total == -np.inf:
+        raise ValueError("no mode has positive probability: c_bar * exp(logliks) is zero "
+                         "for every mode")
+    return mu
+
+
+def imm_combine(mu, xs, Ps):
+    """Moment-matched combination of the mode-matched estimates -> ``GaussianEstimate``."""
+    xs, Ps, r, n = _check_modes(xs, Ps)
+    mu = _check_mu(mu, "mu", r)
+    x, P = np.empty(n), np.empty((n, n))
+    imm_combine_kernel(mu, xs, Ps, x, P)
+    return GaussianEstimate(x, P)
+
+
+def _check_imm_inputs(xs, Ps, mu, PI, Fs, Qs, H, R, m):
+    xs, Ps, r, n = _check_modes(xs, Ps)
+    mu = _check_mu(mu, "mu", r)
+    PI = _check_PI(PI, r)
+    Fs = _check_stack(Fs, "Fs", r, n, covariance=False)
+    Qs = _check_stack(Qs, "Qs", r, n, covariance=True)
+    if m == 0:
+        H, R = np.zeros((0, n)), np.zeros((0, 0))
+    else:
+        H = as_matrix(H, "H", (m, n))
+        R = as_covariance(R, "R", m)
+    return xs, Ps, mu, PI, Fs, Qs, H, R, r, n
+
+
+def imm_step(xs, Ps, mu, PI, Fs, Qs, z, H, R):
+    """One IMM cycle (mix, predict, update, mode probabilities, combine).
+
+    ``xs`` (r, n), ``Ps`` (r, n, n), ``mu`` (r,) are the previous posteriors;
+    ``Fs``, ``Qs`` (r, n, n) the mode models; ``z`` (m,) with common ``H``
+    (m, n), ``R`` (m, m).  An empty ``z`` (m = 0) predicts only.  Returns
+    :class:`IMMStep`.
+    """
+    z = as_vector(z, "z")
+    m = z.shape[0]
+    xs, Ps, mu, PI, Fs, Qs, H, R, r, n = _check_imm_inputs(xs, Ps, mu, PI, Fs, Qs, H, R, m)
+    xs = xs.copy()
+    Ps = Ps.copy()
+    mu_new = np.empty(r)
+    logliks = np.empty(r)
+    total, bad = _imm_cycle(xs, Ps, mu, PI, Fs, Qs, z, False, H, R, np.empty((r, n)),
+                            np.empty((r, n, n)), np.empty(r), np.empty(n), np.empty((n, n)),
+                            np.empty((n, n)), np.empty(m), np.empty((m, m)), np.empty((n, m)),
+                            *_update_scratch(n, m), logliks, mu_new)
+    if bad >= 0:
+        if bad == r:
+            raise ValueError("no mode has positive probability after the update")
+        raise ValueError(f"innovation covariance of mode {bad} is not positive definite")
+    x, P = np.empty(n), np.empty((n, n))
+    imm_combine_kernel(mu_new, xs, Ps, x, P)
+    return IMMStep(xs, Ps, mu_new, x, P, logliks)
+
+
+def imm_filter_run(zs, xs0, Ps0, mu0, PI, Fs, Qs, H, R):
+    """Run the IMM over all scans ``zs`` (K, m) in one numba kernel.
+
+    Starts from mode-matched priors ``xs0`` (r, n), ``Ps0`` (r, n, n) and mode
+    probabilities ``mu0``; each scan is one :func:`imm_step`.  A row of NaN is a
+    missed scan.  Returns :class:`IMMRun` ``(x (K, n), P (K, n, n), mu (K, r),
+    loglik (K,))``.
+    """
+    zs = as_array(zs, "zs", ndim=2, finite=False)
+    Kn, m = zs.shape
+    nan_rows = np.isnan(zs)
+    if np.any(nan_rows.any(axis=1) != nan_rows.all(axis=1)) or np.any(np.isinf(zs)):
+        raise ValueError("zs must be finite; a missed scan is a row that is entirely NaN")
+    xs0, Ps0, mu0, PI, Fs, Qs, H, R, r, n = _check_imm_inputs(xs0, Ps0, mu0, PI, Fs, Qs, H, R,
+                                                              m)
+    x_out, P_out = np.empty((Kn, n)), np.empty((Kn, n, n))
+    mu_out, ll_out = np.empty((Kn, r)), np.empty(Kn)
+    k, bad = imm_filter_run_kernel(zs, xs0, Ps0, mu0, PI, Fs, Qs, H, R, x_out, P_out, mu_out,
+                                   ll_out)
+    if k >= 0:
+        if bad == r:
+            raise ValueError(f"no mode has positive probability at scan {k}")
+        raise ValueError(f"innovation covariance of mode {bad} is not positive definite "
+                         f"at scan {k}")
+    return IMMRun(x_out, P_out, mu_out, ll_out)
