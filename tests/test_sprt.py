@@ -98,6 +98,8 @@ def test_wald_oc_h0_h1_and_zero_limit():
     L = wald_oc(h, g0, g1)
     assert np.all(np.diff(L) > 0)      # larger h (stronger H0 drift) -> more H0 decisions
     assert np.isfinite(wald_oc(400.0, g0, g1))
+    assert isinstance(wald_oc(1.0, g0, g1), float)
+    assert isinstance(wald_gaussian_oc_asn(-0.3, 1.0, g0, g1)[0], float)
 
 
 def test_wald_asn_formula_and_errors():

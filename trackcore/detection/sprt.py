@@ -203,6 +203,7 @@ def wald_oc(h, gamma0, gamma1):
     ``L(0) = gamma1/(gamma1 - gamma0)``.  ``h`` may be an array.
     """
     g0, g1 = _check_thresholds(gamma0, gamma1)
+    scalar = np.ndim(h) == 0
     H = as_array(h, "h")
     out = np.empty_like(H)
     flat, res = H.ravel(), out.ravel()
@@ -214,7 +215,7 @@ def wald_oc(h, gamma0, gamma1):
         # (e^a - 1)/(e^a - e^b), stable for large |a|, |b|
         m = max(a, b)
         res[i] = (math.exp(a - m) - math.exp(-m)) / (math.exp(a - m) - math.exp(b - m))
-    return float(out) if out.ndim == 0 else out
+    return float(out.reshape(-1)[0]) if scalar else out
 
 
 def wald_asn(mean_increment, gamma0, gamma1, p_decide_h0):
