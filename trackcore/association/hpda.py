@@ -64,6 +64,7 @@ __all__ = [
     "hpda_existence_delta_kernel",
     "existence_update",
     "simulate_hpda_ranks",
+    "rank_log_q_kernel",
 ]
 
 
@@ -99,6 +100,10 @@ def _log_q(l, m, c):
     """log q(l, m) = log c + lgamma(m) + lgamma(l-1+c) - lgamma(l) - lgamma(m+c)."""
     return (math.log(c) + math.lgamma(m) + math.lgamma(l - 1.0 + c)
             - math.lgamma(l) - math.lgamma(m + c))
+
+
+rank_log_q_kernel = _log_q
+"""Numba kernel ``log q(l, m)`` for float ``l``, ``m`` and ``c = 1/(1+snr)``."""
 
 
 @nb.njit(cache=True)

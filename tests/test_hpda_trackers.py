@@ -1,0 +1,112 @@
+"""Tests for the HPDA-PF, SMC-PHD and clustering trackers (paper 000)."""
+import math
+
+import numpy as np
+import pytest
+
+from trackcore.scenarios import hpda_parameters, hpda_true_count, hpda_truth, simulate_hpda_scans
+from trackcore.trackers import HpdaPfConfig, hpda_pf_run, jump_markov_propagate_kernel
+
+
+def _short(case=1, K=60, seed=0, clutter=None):
+    from dataclasses import replace
+    p = hpda_parameters(case)
+    if clutter is not None:
+        p = replace(p, clutter_mean=clutter)
+    truth = hpda_truth(n_scans=K)
+    s = simulate_hpda_scans(truth, p, np.random.default_rng(seed))
+    return p, truth, s
+
+
+def _cfg(p, **kw):
+    return HpdaPfConfig(pd=p.pd, snr=p.snr, clutter_density_xy=max(p.clutter_density_xy, 1e-9),
+                        **kw)
+
+
+def test_hpda_single_target_confirmed_and_accurate():
+    p, truth, s = _short()
+    out = hpda_pf_run(s.z, s.amplitude, s.offsets, _cfg(p, n_particles=300), np.random.default_rng(1))
+    n = hpda_true_count(truth)
+    assert out.count.shape == (60,)
+    # confirmed within a few scans, then exactly one track most of the time
+    first = int(np.argmax(out.count >= 1))
+    assert first <= 6
+    assert np.mean(out.count[first:] == n[first:]) > 0.9
+    k = 59
+    err = np.hypot(*(out.estimates[k, 0, :2] - truth.states[k, 0, :2]))
+    assert err < 150.0
+    assert out.n_estimates[k] == out.count[k]
+
+
+def test_hpda_empty_scans_and_clutter_only():
+    off = np.zeros(21, dtype=np.int64)
+    cfg = HpdaPfConfig(pd=0.9, snr=10, clutter_density_xy=3e-8, n_particles=50)
+    out = hpda_pf_run(np.zeros((0, 2)), np.zeros(0), off, cfg, np.random.default_rng(0))
+    assert np.all(out.count == 0) and np.all(out.aux == 0)
+    # clutter only: few false confirmations in case 1
+    rng = np.random.default_rng(3)
+    K, M = 50, 10
+    r = 1e4 * np.sqrt(rng.random(K * M))
+    z = np.column_stack([r, rng.uniform(-np.pi, np.pi, K * M)])
+    a = 1.159 + rng.exponential(1.0, K * M)
+    off = np.arange(0, K * M + 1, M, dtype=np.int64)
+    out = hpda_pf_run(z, a, off, HpdaPfConfig(pd=0.9, snr=10, clutter_density_xy=10 / (math.pi * 1e8),
+                                              n_particles=50), np.random.default_rng(4))
+    assert out.count.mean() < 0.3
+
+
+def test_hpda_deterministic_and_rules():
+    p, truth, s = _short(case=2, K=40)
+    a = hpda_pf_run(s.z, s.amplitude, s.offsets, _cfg(p, n_particles=100), np.random.default_rng(9))
+    b = hpda_pf_run(s.z, s.amplitude, s.offsets, _cfg(p, n_particles=100), np.random.default_rng(9))
+    np.testing.assert_array_equal(a.count, b.count)
+    np.testing.assert_array_equal(a.estimates, b.estimates)
+    for rule in ("strongest", "nearest"):
+        out = hpda_pf_run(s.z, s.amplitude, s.offsets, _cfg(p, n_particles=100, selection=rule),
+                          np.random.default_rng(9))
+        assert out.count.shape == (40,)
+
+
+def test_jump_markov_kernel_modes():
+    rng = np.random.default_rng(0)
+    X = np.tile([0.0, 0.0, 1.5, 0.0], (4000, 1))
+    modes = np.zeros(4000, dtype=np.int64)
+    cum = np.cumsum(np.array([[0.0, 1.0, 0.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0]]), axis=1)
+    jump_markov_propagate_kernel(X, modes, cum, 10.0, 0.0, 0.01, rng)
+    assert np.all(modes == 1)
+    # left turn: speed preserved, heading rotated by a_m T / v
+    np.testing.assert_allclose(np.hypot(X[:, 2], X[:, 3]), 1.5, rtol=1e-12)
+    np.testing.assert_allclose(np.arctan2(X[:, 3], X[:, 2]), 0.01 * 10 / 1.5, rtol=1e-12)
+    # mode frequencies follow the TPM row
+    X = np.tile([0.0, 0.0, 1.5, 0.0], (20000, 1))
+    modes = np.zeros(20000, dtype=np.int64)
+    cum = np.cumsum(np.array([[0.9, 0.05, 0.05]] * 3), axis=1)
+    jump_markov_propagate_kernel(X, modes, cum, 10.0, 0.0015, 0.01, rng)
+    frac = np.bincount(modes, minlength=3) / 20000
+    assert abs(frac[0] - 0.9) < 4 * math.sqrt(0.09 / 20000)
+
+
+def test_hpda_bad_input():
+    cfg = HpdaPfConfig(pd=0.9, snr=10, clutter_density_xy=3e-8, n_particles=10)
+    off = np.array([0, 1])
+    with pytest.raises(ValueError, match="amplitude must not contain NaN"):
+        hpda_pf_run(np.array([[5000.0, 0.1]]), np.array([np.nan]), off, cfg, np.random.default_rng())
+    with pytest.raises(ValueError, match="offsets"):
+        hpda_pf_run(np.array([[5000.0, 0.1]]), np.array([2.0]), np.array([0, 2]), cfg,
+                    np.random.default_rng())
+    with pytest.raises(ValueError, match="z must have shape"):
+        hpda_pf_run(np.ones((1, 3)), np.array([2.0]), off, cfg, np.random.default_rng())
+    with pytest.raises(TypeError, match="rng"):
+        hpda_pf_run(np.array([[5000.0, 0.1]]), np.array([2.0]), off, cfg, 1)
+    with pytest.raises(TypeError, match="config"):
+        hpda_pf_run(np.array([[5000.0, 0.1]]), np.array([2.0]), off, {}, np.random.default_rng())
+    from dataclasses import replace
+    with pytest.raises(ValueError, match="config.pd"):
+        hpda_pf_run(np.array([[5000.0, 0.1]]), np.array([2.0]), off, replace(cfg, pd=1.0),
+                    np.random.default_rng())
+    with pytest.raises(ValueError, match="selection"):
+        hpda_pf_run(np.array([[5000.0, 0.1]]), np.array([2.0]), off, replace(cfg, selection="x"),
+                    np.random.default_rng())
+    with pytest.raises(ValueError, match="mode_tpm"):
+        hpda_pf_run(np.array([[5000.0, 0.1]]), np.array([2.0]), off,
+                    replace(cfg, mode_tpm=((1, 1, 0), (0, 1, 0), (0, 0, 1))), np.random.default_rng())
