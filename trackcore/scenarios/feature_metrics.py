@@ -1,0 +1,184 @@
+"""Track-quality measures for the feature-JPDA scenes (chapter spec section 7).
+
+Truth-to-track matching per frame: Hungarian assignment on centroid distance
+between the *vehicles* present in the frame and the confirmed and memory
+tracks, gated at ``match_gate`` (10 px).  From the matches:
+
+* track maintenance rate (TMR): for every vehicle, its eligible frames are
+  those where it is fully visible, from 3 frames after it first appears; its
+  primary track is the first track ID matched to it; it is maintained at a
+  frame if matched to its primary track.  TMR = maintained / eligible;
+* coverage: as TMR, any matched track counts;
+* false tracks: tracks that were confirmed and matched to no vehicle in at
+  least half of their confirmed (confirmed or memory) frames;
+* CLEAR-MOT ID switches, fragmentations, MOTA and MOTP;
+* crossing outcome (kept / swap / break) 10 frames either side of a conflict;
+* follower: frames from the follower's full entry until it has its own
+  confirmed track (one never matched to the leader before).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+__all__ = ["SceneMetrics", "match_tracks", "scene_metrics", "wilson_interval"]
+
+_REPORTED = ("confirmed", "memory")
+
+
+class SceneMetrics(NamedTuple):
+    tmr_num: int
+    tmr_den: int
+    coverage_num: int
+    false_tracks: int
+    false_track_frames: int
+    id_switches: int
+    fragmentations: int
+    mota: float
+    motp: float
+    crossing: str            # "kept", "swap", "break" or "" (no crossing)
+    follower_delay: int      # frames until the follower's own confirmed track (-1 = never)
+    mean_events: float
+    max_events: int
+    valid_removed: float     # share of kinematic validation entries removed by the feature gate
+    assoc_ms: float          # mean association time per frame
+
+    @property
+    def tmr(self):
+        return self.tmr_num / self.tmr_den if self.tmr_den else float("nan")
+
+
+def wilson_interval(k, n, z=1.959963984540054):
+    """Wilson score interval (95 % by default) for k successes in n trials."""
+    k = np.asarray(k, float)
+    n = np.asarray(n, float)
+    if np.any(n <= 0) or np.any(k < 0) or np.any(k > n):
+        raise ValueError("need 0 <= k <= n and n > 0")
+    p = k / n
+    den = 1 + z ** 2 / n
+    centre = (p + z ** 2 / (2 * n)) / den
+    half = z * np.sqrt(p * (1 - p) / n + z ** 2 / (4 * n ** 2)) / den
+    return centre - half, centre + half
+
+
+def match_tracks(truth_xy, truth_present, reports, match_gate=10.0):
+    """Per frame, the matched track ID of every truth object (-1 = none) and
+    the distances: returns ``(ids (K, n) int, dist (K, n))``."""
+    K, n = truth_present.shape
+    ids = np.full((K, n), -1, np.int64)
+    dist = np.full((K, n), np.nan)
+    for k in range(K):
+        objs = np.nonzero(truth_present[k])[0]
+        tr = [s for s in reports[k].tracks if s.status in _REPORTED]
+        if len(objs) == 0 or not tr:
+            continue
+        P = np.array([[s.x, s.y] for s in tr])
+        D = np.hypot(truth_xy[k, objs, None, 0] - P[None, :, 0],
+                     truth_xy[k, objs, None, 1] - P[None, :, 1])
+        cost = np.where(D <= match_gate, D, 1e9)
+        rows, cols = linear_sum_assignment(cost)
+        for r, cix in zip(rows, cols):
+            if D[r, cix] <= match_gate:
+                ids[k, objs[r]] = tr[cix].tid
+                dist[k, objs[r]] = D[r, cix]
+    return ids, dist
+
+
+def scene_metrics(scene, reports, match_gate=10.0):
+    """All measures of one tracker run over one scene (vehicles are the truth)."""
+    veh = np.nonzero(scene.is_vehicle)[0]
+    xy = scene.xy[:, veh]
+    present = scene.present[:, veh]
+    visible = scene.visible[:, veh]
+    K, n = present.shape
+    ids, dist = match_tracks(xy, present, reports, match_gate)
+    tmr_num = tmr_den = cov = 0
+    idsw = frag = 0
+    primary = {}
+    for o in range(n):
+        seen = np.nonzero(present[:, o])[0]
+        if len(seen) == 0:
+            continue
+        first = seen[0]
+        matched = np.nonzero(ids[:, o] >= 0)[0]
+        if len(matched):
+            primary[o] = ids[matched[0], o]
+        elig = visible[:, o].copy()
+        elig[:first + 3] = False
+        tmr_den += int(elig.sum())
+        cov += int((elig & (ids[:, o] >= 0)).sum())
+        if o in primary:
+            tmr_num += int((elig & (ids[:, o] == primary[o])).sum())
+        last = -1
+        was = False
+        for k in range(K):
+            cur = ids[k, o]
+            if cur >= 0:
+                if last >= 0 and cur != last:
+                    idsw += 1
+                if not was and last >= 0:
+                    frag += 1
+                last = cur
+                was = True
+            elif present[k, o]:
+                was = False
+    # false tracks
+    conf_frames, matched_frames = {}, {}
+    matched_ids = [set(ids[k][ids[k] >= 0].tolist()) for k in range(K)]
+    for k in range(K):
+        for s in reports[k].tracks:
+            if s.status in _REPORTED:
+                conf_frames[s.tid] = conf_frames.get(s.tid, 0) + 1
+                if s.tid in matched_ids[k]:
+                    matched_frames[s.tid] = matched_frames.get(s.tid, 0) + 1
+    false_ids = [t for t, nf in conf_frames.items() if matched_frames.get(t, 0) < 0.5 * nf]
+    false_frames = sum(conf_frames[t] for t in false_ids)
+    # MOTA / MOTP over present vehicles
+    gt = int(present.sum())
+    fn = int((present & (ids < 0)).sum())
+    fp = sum(sum(1 for s in reports[k].tracks if s.status in _REPORTED) for k in range(K)) \
+        - int((ids >= 0).sum())
+    mota = 1.0 - (fn + fp + idsw) / gt if gt else float("nan")
+    motp = float(np.nanmean(dist)) if np.any(ids >= 0) else float("nan")
+    # crossing
+    crossing = ""
+    if scene.conflict_frame >= 0 and len(scene.pair) == 2:
+        a, b = (int(np.nonzero(veh == p)[0][0]) for p in scene.pair)
+        k0, k1 = scene.conflict_frame - 10, scene.conflict_frame + 10
+        before, after = (ids[k0, a], ids[k0, b]), (ids[k1, a], ids[k1, b])
+        if min(before) < 0 or min(after) < 0 or before[0] == before[1]:
+            crossing = "break"
+        elif after == before:
+            crossing = "kept"
+        elif after == (before[1], before[0]):
+            crossing = "swap"
+        else:
+            crossing = "break"
+    # follower (S3): the second vehicle of the pair
+    follower_delay = -1
+    if scene.name == "S3":
+        lead, fol = (int(np.nonzero(veh == p)[0][0]) for p in scene.pair)
+        full = np.nonzero(visible[:, fol])[0]
+        if len(full):
+            enter = full[0]
+            lead_ids = set()
+            for k in range(K):
+                if ids[k, lead] >= 0:
+                    lead_ids.add(int(ids[k, lead]))
+                if k < enter:
+                    continue
+                tid = ids[k, fol]
+                if tid >= 0 and tid not in lead_ids:
+                    st = [s.status for s in reports[k].tracks if s.tid == tid][0]
+                    if st == "confirmed":
+                        follower_delay = k - enter
+                        break
+    ev = np.array([r.n_events for r in reports])
+    vk = sum(r.n_valid_kin for r in reports)
+    vv = sum(r.n_valid for r in reports)
+    return SceneMetrics(tmr_num, tmr_den, cov, len(false_ids), false_frames, idsw, frag,
+                        float(mota), motp, crossing, follower_delay, float(ev.mean()),
+                        int(ev.max()), (vk - vv) / vk if vk else 0.0,
+                        float(np.mean([r.assoc_ms for r in reports])))
