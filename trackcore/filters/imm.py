@@ -25,8 +25,8 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-from ..core.logmath import logsumexp_kernel
-from ..core.validation import as_array, as_covariance, as_matrix, as_vector
+from ..core.validation import as_array, as_vector
+from ._fastcheck import checked, checked_cov, checked_cov_stack
 from .kalman import GaussianEstimate, _predict_into, _update_into, _update_scratch
 
 __all__ = [
@@ -112,17 +112,25 @@ def imm_mode_update_kernel(c_bar, logliks, mu_out):
     Returns ``-inf`` (and leaves ``mu_out`` undefined) if no mode has mass.
     """
     r = c_bar.shape[0]
+    amax = -np.inf
     for j in range(r):
         if c_bar[j] > 0.0:
             mu_out[j] = math.log(c_bar[j]) + logliks[j]
         else:
             mu_out[j] = -np.inf
-    total = logsumexp_kernel(mu_out)
-    if total == -np.inf or math.isnan(total):
+        if mu_out[j] > amax:
+            amax = mu_out[j]
+    if amax == -np.inf or math.isnan(amax):
         return -np.inf
+    # normalise exp(l_j - max) by its sum (not exp(l_j - logsumexp)): the sum is
+    # then 1 to rounding even when the log-likelihoods are huge in magnitude
+    s = 0.0
     for j in range(r):
-        mu_out[j] = math.exp(mu_out[j] - total)
-    return total
+        mu_out[j] = math.exp(mu_out[j] - amax)
+        s += mu_out[j]
+    for j in range(r):
+        mu_out[j] /= s
+    return amax + math.log(s)
 
 
 @nb.njit(cache=True)
@@ -220,7 +228,7 @@ def imm_filter_run_kernel(zs, xs0, Ps0, mu0, PI, Fs, Qs, H, R, x_out, P_out, mu_
 
 # ---------------------------------------------------------------------- wrappers
 def _check_mu(mu, name="mu", r=None):
-    mu = as_vector(mu, name, r)
+    mu = checked(mu, name, (r,)) if r is not None else as_vector(mu, name)
     if mu.size == 0:
         raise ValueError(f"{name} must not be empty")
     if np.any(mu < 0) or abs(mu.sum() - 1.0) > 1e-9:
@@ -230,8 +238,8 @@ def _check_mu(mu, name="mu", r=None):
 
 
 def _check_PI(PI, r):
-    PI = as_matrix(PI, "PI", (r, r))
-    if np.any(PI < 0) or np.any(PI > 1):
+    PI = checked(PI, "PI", (r, r))
+    if PI.min() < 0 or PI.max() > 1:
         raise ValueError("PI must contain probabilities in [0, 1]")
     if np.any(np.abs(PI.sum(axis=1) - 1.0) > 1e-9):
         raise ValueError(f"PI rows must sum to 1 (row sums {PI.sum(axis=1).tolist()})")
@@ -239,23 +247,22 @@ def _check_PI(PI, r):
 
 
 def _check_modes(xs, Ps, r=None):
-    xs = as_array(xs, "xs", ndim=2)
+    if not (type(xs) is np.ndarray and xs.ndim == 2):
+        xs = as_array(xs, "xs", ndim=2)
+    xs = checked(xs, "xs", xs.shape)
     r_, n = xs.shape
     if r is not None and r_ != r:
         raise ValueError(f"xs must have {r} rows (one per mode), got shape {xs.shape}")
     if n == 0 or r_ == 0:
         raise ValueError(f"xs must be a non-empty (r, n) array, got shape {xs.shape}")
-    Ps = as_array(Ps, "Ps", shape=(r_, n, n))
-    Ps = np.ascontiguousarray(np.stack([as_covariance(Ps[j], f"Ps[{j}]", n) for j in range(r_)]))
+    Ps = checked_cov_stack(Ps, "Ps", r_, n)
     return xs, Ps, r_, n
 
 
 def _check_stack(M, name, r, n, covariance):
-    M = as_array(M, name, shape=(r, n, n))
     if covariance:
-        M = np.ascontiguousarray(np.stack([as_covariance(M[j], f"{name}[{j}]", n)
-                                           for j in range(r)]))
-    return M
+        return checked_cov_stack(M, name, r, n)
+    return checked(M, name, (r, n, n))
 
 
 def imm_mix(mu, PI, xs, Ps):
@@ -309,8 +316,8 @@ def _check_imm_inputs(xs, Ps, mu, PI, Fs, Qs, H, R, m):
     if m == 0:
         H, R = np.zeros((0, n)), np.zeros((0, 0))
     else:
-        H = as_matrix(H, "H", (m, n))
-        R = as_covariance(R, "R", m)
+        H = checked(H, "H", (m, n))
+        R = checked_cov(R, "R", m)
     return xs, Ps, mu, PI, Fs, Qs, H, R, r, n
 
 
@@ -350,11 +357,14 @@ def imm_filter_run(zs, xs0, Ps0, mu0, PI, Fs, Qs, H, R):
     missed scan.  Returns :class:`IMMRun` ``(x (K, n), P (K, n, n), mu (K, r),
     loglik (K,))``.
     """
-    zs = as_array(zs, "zs", ndim=2, finite=False)
+    if not (type(zs) is np.ndarray and zs.dtype == np.float64 and zs.ndim == 2
+            and zs.flags.c_contiguous):
+        zs = as_array(zs, "zs", ndim=2, finite=False)
     Kn, m = zs.shape
-    nan_rows = np.isnan(zs)
-    if np.any(nan_rows.any(axis=1) != nan_rows.all(axis=1)) or np.any(np.isinf(zs)):
-        raise ValueError("zs must be finite; a missed scan is a row that is entirely NaN")
+    if not math.isfinite(zs.sum()):
+        nan_rows = np.isnan(zs)
+        if np.any(nan_rows.any(axis=1) != nan_rows.all(axis=1)) or np.any(np.isinf(zs)):
+            raise ValueError("zs must be finite; a missed scan is a row that is entirely NaN")
     xs0, Ps0, mu0, PI, Fs, Qs, H, R, r, n = _check_imm_inputs(xs0, Ps0, mu0, PI, Fs, Qs, H, R,
                                                               m)
     x_out, P_out = np.empty((Kn, n)), np.empty((Kn, n, n))

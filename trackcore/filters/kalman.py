@@ -25,6 +25,7 @@ import numpy as np
 from ..core.logmath import LOG_2PI
 from ..core.validation import as_array, as_covariance, as_int, as_matrix, as_vector
 from ..models.measurement import wrap_angle_kernel
+from ._fastcheck import checked, checked_cov
 
 __all__ = [
     "GaussianEstimate",
@@ -263,18 +264,15 @@ def kalman_filter_run_kernel(zs, x0, P0, F, Q, H, R, xs, Ps, nis, loglik):
     S = np.empty((m, m))
     K = np.empty((n, m))
     PHt, W, RKt, L, A, y = _update_scratch(n, m)
+    xc = x0.copy()
+    Pc = P0.copy()
     for k in range(zs.shape[0]):
-        if k == 0:
-            _predict_into(x0, P0, F, Q, xp, Pp, FP)
-        else:
-            _predict_into(xs[k - 1], Ps[k - 1], F, Q, xp, Pp, FP)
-        xk = xs[k]
-        Pk = Ps[k]
+        _predict_into(xc, Pc, F, Q, xp, Pp, FP)
         if m > 0 and math.isnan(zs[k, 0]):
             for i in range(n):
-                xk[i] = xp[i]
+                xc[i] = xp[i]
                 for j in range(n):
-                    Pk[i, j] = Pp[i, j]
+                    Pc[i, j] = Pp[i, j]
             nis[k] = np.nan
             loglik[k] = 0.0
         else:
@@ -283,29 +281,35 @@ def kalman_filter_run_kernel(zs, x0, P0, F, Q, H, R, xs, Ps, nis, loglik):
                 for j in range(n):
                     s -= H[i, j] * xp[j]
                 innov[i] = s
-            v, ll, ok = _update_into(xp, Pp, innov, H, R, xk, Pk, S, K, PHt, W, RKt, L, A, y)
+            v, ll, ok = _update_into(xp, Pp, innov, H, R, xc, Pc, S, K, PHt, W, RKt, L, A, y)
             if not ok:
                 return k
             nis[k] = v
             loglik[k] = ll
+        for i in range(n):
+            xs[k, i] = xc[i]
+            for j in range(n):
+                Ps[k, i, j] = Pc[i, j]
     return -1
 
 
 # ---------------------------------------------------------------------- wrappers
-def _check_state(x, P):
-    x = as_vector(x, "x")
+def _check_state(x, P, x_name="x", P_name="P"):
+    if not (type(x) is np.ndarray and x.ndim == 1):
+        x = as_vector(x, x_name)
     n = x.shape[0]
+    x = checked(x, x_name, (n,))
     if n == 0:
-        raise ValueError("x must not be empty")
-    P = as_covariance(P, "P", n)
+        raise ValueError(f"{x_name} must not be empty")
+    P = checked_cov(P, P_name, n)
     return x, P, n
 
 
 def kf_predict(x, P, F, Q):
     """Kalman prediction: returns ``(F x, F P F^T + Q)``."""
     x, P, n = _check_state(x, P)
-    F = as_matrix(F, "F", (n, n))
-    Q = as_covariance(Q, "Q", n)
+    F = checked(F, "F", (n, n))
+    Q = checked_cov(Q, "Q", n)
     x_out = np.empty(n)
     P_out = np.empty((n, n))
     kf_predict_kernel(x, P, F, Q, x_out, P_out)
@@ -313,14 +317,16 @@ def kf_predict(x, P, F, Q):
 
 
 def _check_measurement(z, H, R, n, z_name="z"):
-    z = as_vector(z, z_name)
+    if not (type(z) is np.ndarray and z.ndim == 1):
+        z = as_vector(z, z_name)
     m = z.shape[0]
-    H = as_array(H, "H", ndim=2) if m == 0 else as_matrix(H, "H", (m, n))
+    z = checked(z, z_name, (m,))
+    H = as_array(H, "H", ndim=2) if m == 0 else checked(H, "H", (m, n))
     if m == 0:
         H = np.zeros((0, n))
         R = np.zeros((0, 0))
     else:
-        R = as_covariance(R, "R", m)
+        R = checked_cov(R, "R", m)
     return z, H, R, m
 
 
@@ -388,16 +394,19 @@ def kalman_filter_run(zs, x0, P0, F, Q, H, R):
     a row of NaN is a missed scan (prediction only).  Returns
     :class:`KalmanRun` ``(xs (K, n), Ps (K, n, n), nis (K,), loglik (K,))``.
     """
-    x0, P0, n = _check_state(x0, P0)
-    zs = as_array(zs, "zs", ndim=2, finite=False)
+    x0, P0, n = _check_state(x0, P0, "x0", "P0")
+    if not (type(zs) is np.ndarray and zs.dtype == np.float64 and zs.ndim == 2
+            and zs.flags.c_contiguous):
+        zs = as_array(zs, "zs", ndim=2, finite=False)
     K, m = zs.shape
-    nan_rows = np.isnan(zs)
-    if np.any(nan_rows.any(axis=1) != nan_rows.all(axis=1)) or np.any(np.isinf(zs)):
-        raise ValueError("zs must be finite; a missed scan is a row that is entirely NaN")
-    F = as_matrix(F, "F", (n, n))
-    Q = as_covariance(Q, "Q", n)
-    H = as_matrix(H, "H", (m, n))
-    R = as_covariance(R, "R", m) if m else np.zeros((0, 0))
+    if not math.isfinite(zs.sum()):
+        nan_rows = np.isnan(zs)
+        if np.any(nan_rows.any(axis=1) != nan_rows.all(axis=1)) or np.any(np.isinf(zs)):
+            raise ValueError("zs must be finite; a missed scan is a row that is entirely NaN")
+    F = checked(F, "F", (n, n))
+    Q = checked_cov(Q, "Q", n)
+    H = checked(H, "H", (m, n))
+    R = checked_cov(R, "R", m) if m else np.zeros((0, 0))
     xs = np.empty((K, n))
     Ps = np.empty((K, n, n))
     nis = np.empty(K)
