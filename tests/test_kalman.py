@@ -208,3 +208,33 @@ def test_update_property(seed, n, m):
     assert np.all(np.linalg.eigvalsh(u.P) > 0)
     ref = reference_update(x, P, z, H, R)
     np.testing.assert_allclose(u.x, ref[0], rtol=1e-8, atol=1e-8)
+
+
+def test_fast_validation_matches_core_checks():
+    from trackcore.core.validation import as_covariance
+    from trackcore.filters._fastcheck import checked, checked_cov, checked_cov_stack
+    rng = np.random.default_rng(5)
+    A = rng.normal(size=(4, 4))
+    P = A @ A.T
+    P_near = P.copy()
+    P_near[0, 1] += 1e-14  # symmetric to tolerance: accepted and symmetrised
+    for _ in range(2):  # second pass hits the cache
+        np.testing.assert_array_equal(checked_cov(P_near, "P", 4), as_covariance(P_near, "P", 4))
+    bad = -P
+    for _ in range(2):
+        with pytest.raises(ValueError, match="Pbad"):
+            checked_cov(bad, "Pbad", 4)
+    with pytest.raises(ValueError, match="P"):
+        checked_cov(np.triu(P), "P", 4)
+    with pytest.raises(ValueError, match="Qs\\[1\\]"):
+        checked_cov_stack(np.stack([P, -P]), "Qs", 2, 4)
+    with pytest.raises(ValueError, match="F"):
+        checked(np.full((2, 2), np.inf), "F", (2, 2))
+    np.testing.assert_array_equal(checked([[1, 2], [3, 4]], "F", (2, 2)), [[1.0, 2.0], [3.0, 4.0]])
+    # a previously accepted P does not let a different, invalid one through
+    x, H, R = np.zeros(4), position_matrix(), np.eye(2)
+    kf_update(x, P, np.zeros(2), H, R)
+    P2 = P.copy()
+    P2[3, 3] = -100.0
+    with pytest.raises(ValueError, match="P"):
+        kf_update(x, P2, np.zeros(2), H, R)
