@@ -460,3 +460,26 @@ def test_bootstrap_step_bad_input():
         bootstrap_step(np.zeros((0, 4)), np.zeros(0), F, L, [1.0, 0.0], np.eye(2), rng)
     with pytest.raises(TypeError, match="rng"):
         bootstrap_step(X, lw, F, L, [1.0, 0.0], np.eye(2), None)
+
+
+def test_kernels_link_into_a_fresh_callers_kernel(tmp_path):
+    """A user's njit loop calling the (cached, partly parallel) kernels must compile
+    in a fresh process (numba needs its thread pool started; see particle.py)."""
+    import subprocess
+    import sys
+    import textwrap
+    code = textwrap.dedent("""
+        import numba as nb, numpy as np
+        from trackcore.filters.particle import bootstrap_step_kernel
+        @nb.njit
+        def run(X, lw, F, L, z, Rinv, rng, sc):
+            for _ in range(3):
+                bootstrap_step_kernel(X, lw, F, L, z, Rinv, 0.0, 1, 0.0, 0.0, rng, 1.0, sc, 10)
+            return X[0, 0]
+        X = np.ones((50, 4)); F = np.eye(4); L = np.eye(4)[:, :2]
+        print(run(X, np.zeros(50), F, L, np.array([1.0, 0.5]), np.eye(2),
+                  np.random.default_rng(0), np.empty((50, 4))))
+    """)
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=300)
+    assert res.returncode == 0, res.stderr[-2000:]

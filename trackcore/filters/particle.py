@@ -75,8 +75,14 @@ _MODELS = {"position": MODEL_POSITION, "range_bearing": MODEL_RANGE_BEARING}
 #: names accepted by ``scheme=``
 RESAMPLING_SCHEMES = ("systematic", "stratified", "residual", "multinomial")
 
-# above this many particles the likelihood loop runs with prange
+# above this many particles the move-and-weigh pass runs with prange
 _PARALLEL_MIN = 20000
+
+# Start numba's thread pool now.  A cached ``parallel=True`` kernel that is
+# linked into a *caller's* kernel (e.g. a chapter's njit loop calling
+# bootstrap_step_kernel) needs the threading-layer symbols loaded, otherwise
+# LLVM aborts with "Symbol not found: allocate_sched" in a fresh process.
+nb.get_num_threads()
 
 
 # --------------------------------------------------------------------------
@@ -296,22 +302,52 @@ def weighted_mean_cov(particles, logw):
 # resampling kernels (w non-negative, sum > 0; normalised internally)
 # --------------------------------------------------------------------------
 @nb.njit(cache=True)
+def _systematic_marks(w, total, u0, out):
+    """Systematic resampling without a data-dependent inner loop.
+
+    Position ``i`` is ``(u0 + i) / M * total``; the number of positions below
+    the cumulative weight ``C_j`` is ``ceil(C_j M / total - u0)`` (clamped to
+    [0, M]).  Each positive-weight particle marks the first output slot of its
+    run, and a running maximum fills the runs: two branch-light passes instead
+    of the classic while-loop whose branch is unpredictable.  Zero-weight
+    particles are never selected.
+    """
+    N = w.shape[0]
+    M = out.shape[0]
+    if M == 0:
+        return
+    for i in range(M):
+        out[i] = 0
+    inv = M / total
+    cum = 0.0
+    prev = 0
+    first = -1
+    for j in range(N):
+        wj = w[j]
+        if wj > 0.0:
+            if first < 0:
+                first = j
+            if prev < M:
+                out[prev] = j
+            cum += wj
+            c = math.ceil(cum * inv - u0)
+            if c > prev:
+                prev = int(min(c, M))
+    cur = first
+    for i in range(M):
+        v = out[i]
+        cur = v if v > cur else cur
+        out[i] = cur
+
+
+@nb.njit(cache=True)
 def systematic_indices_kernel(w, u0, out):
     """Systematic resampling with offset ``u0`` in [0, 1): positions
     ``(u0 + i) / M`` (``M = len(out)``) against the cumulative weights."""
-    N = w.shape[0]
-    M = out.shape[0]
     total = 0.0
-    for j in range(N):
+    for j in range(w.shape[0]):
         total += w[j]
-    j = 0
-    c = w[0]
-    for i in range(M):
-        pos = (u0 + i) / M * total
-        while pos >= c and j < N - 1:
-            j += 1
-            c += w[j]
-        out[i] = j
+    _systematic_marks(w, total, u0, out)
 
 
 @nb.njit(cache=True)
@@ -601,15 +637,90 @@ def loglik_range_bearing(particles, z, R, sensor=(0.0, 0.0)):
 # fused bootstrap step
 # --------------------------------------------------------------------------
 @nb.njit(cache=True)
+def _move_weigh_range(particles, lo, hi, F, L, noise, z, Rinv, c, model, sx, sy, logw):
+    """Propagate particles ``lo..hi-1`` with pre-drawn ``noise[i, :k]`` and add
+    their log-likelihoods to ``logw`` (skipped when ``z`` is empty)."""
+    n = particles.shape[1]
+    k = L.shape[1]
+    d = z.shape[0]
+    if n == 4:
+        f00, f01, f02, f03 = F[0, 0], F[0, 1], F[0, 2], F[0, 3]
+        f10, f11, f12, f13 = F[1, 0], F[1, 1], F[1, 2], F[1, 3]
+        f20, f21, f22, f23 = F[2, 0], F[2, 1], F[2, 2], F[2, 3]
+        f30, f31, f32, f33 = F[3, 0], F[3, 1], F[3, 2], F[3, 3]
+        for i in range(lo, hi):
+            x0 = particles[i, 0]
+            x1 = particles[i, 1]
+            x2 = particles[i, 2]
+            x3 = particles[i, 3]
+            y0 = f00 * x0 + f01 * x1 + f02 * x2 + f03 * x3
+            y1 = f10 * x0 + f11 * x1 + f12 * x2 + f13 * x3
+            y2 = f20 * x0 + f21 * x1 + f22 * x2 + f23 * x3
+            y3 = f30 * x0 + f31 * x1 + f32 * x2 + f33 * x3
+            for c2 in range(k):
+                w = noise[i, c2]
+                y0 += L[0, c2] * w
+                y1 += L[1, c2] * w
+                y2 += L[2, c2] * w
+                y3 += L[3, c2] * w
+            particles[i, 0] = y0
+            particles[i, 1] = y1
+            particles[i, 2] = y2
+            particles[i, 3] = y3
+    else:
+        tmp = np.empty(n)
+        for i in range(lo, hi):
+            for a in range(n):
+                s = 0.0
+                for b in range(n):
+                    s += F[a, b] * particles[i, b]
+                for c2 in range(k):
+                    s += L[a, c2] * noise[i, c2]
+                tmp[a] = s
+            for a in range(n):
+                particles[i, a] = tmp[a]
+    if d > 0:
+        if model == 1:
+            for i in range(lo, hi):
+                logw[i] += _ll_range_bearing_one(particles, i, z, Rinv, c, sx, sy)
+        else:
+            for i in range(lo, hi):
+                logw[i] += _ll_position_one(particles, i, z, Rinv, c)
+
+
+@nb.njit(cache=True)
+def _move_weigh_serial(particles, F, L, noise, z, Rinv, c, model, sx, sy, logw):
+    _move_weigh_range(particles, 0, particles.shape[0], F, L, noise, z, Rinv, c, model,
+                      sx, sy, logw)
+
+
+@nb.njit(cache=True, parallel=True)
+def _move_weigh_parallel(particles, F, L, noise, z, Rinv, c, model, sx, sy, logw):
+    N = particles.shape[0]
+    chunk = 4096
+    nchunks = (N + chunk - 1) // chunk
+    for q in nb.prange(nchunks):
+        lo = q * chunk
+        hi = min(N, lo + chunk)
+        _move_weigh_range(particles, lo, hi, F, L, noise, z, Rinv, c, model, sx, sy, logw)
+
+
+@nb.njit(cache=True)
 def bootstrap_step_kernel(particles, logw, F, L, z, Rinv, logdetR, model, sx, sy,
-                          rng, ess_threshold, scratch):
+                          rng, ess_threshold, scratch, parallel_min=_PARALLEL_MIN):
     """One bootstrap-PF step in place: propagate, weight, normalise, resample.
 
     ``particles`` ``(N, n)`` and ``logw`` ``(N,)`` are overwritten; ``scratch``
-    is an ``(N, n)`` work array.  ``z`` of length 0 means an empty scan (no
-    weighting).  ``model``: :data:`MODEL_POSITION` or
-    :data:`MODEL_RANGE_BEARING`.  Systematic resampling happens when
-    ``ess_threshold >= 1`` or ``ESS < ess_threshold * N``.
+    is an ``(N, n)`` work array and ``L`` is ``(n, k)`` with ``k <= n``.
+    ``z`` of length 0 means an empty scan (no weighting).  ``model``:
+    :data:`MODEL_POSITION` or :data:`MODEL_RANGE_BEARING`.  Systematic
+    resampling happens when ``ess_threshold >= 1`` or
+    ``ESS < ess_threshold * N``.
+
+    Random draws: ``N * k`` standard normals (particle by particle, the same
+    stream as :func:`propagate_linear_kernel`), then one ``rng.random()`` if
+    resampling.  The noise is drawn serially first, so the move-and-weigh
+    pass may run in parallel (``N >= parallel_min``) with identical results.
 
     Returns ``(log_evidence, ess_before_resampling, resampled)`` where
     ``log_evidence = log sum_i w_i p(z | x_i)`` with the input weights
@@ -617,55 +728,59 @@ def bootstrap_step_kernel(particles, logw, F, L, z, Rinv, logdetR, model, sx, sy
     """
     N, n = particles.shape
     k = L.shape[1]
-    # predict (serial: fixed order of random draws)
-    w = np.empty(max(k, 1))
-    tmp = np.empty(n)
+    # 1. prior normaliser (cheap when the weights are uniform, the usual case)
+    uniform = True
+    for i in range(1, N):
+        if logw[i] != logw[0]:
+            uniform = False
+            break
+    if uniform:
+        lse0 = logw[0] + math.log(N)
+    else:
+        lse0 = logsumexp_kernel(logw)
+    # 2. draw the process noise serially into scratch[:, :k]
     for i in range(N):
-        for c in range(k):
-            w[c] = rng.standard_normal()
-        for a in range(n):
-            s = 0.0
-            for b in range(n):
-                s += F[a, b] * particles[i, b]
-            tmp[a] = s
-        for a in range(n):
-            s = tmp[a]
-            for c in range(k):
-                s += L[a, c] * w[c]
-            particles[i, a] = s
-    # normalise the prior weights
-    lse0 = logsumexp_kernel(logw)
+        for c2 in range(k):
+            scratch[i, c2] = rng.standard_normal()
+    # 3. move and weigh
+    d = z.shape[0]
+    c = -0.5 * (d * 1.8378770664093453 + logdetR)
+    if N >= parallel_min:
+        _move_weigh_parallel(particles, F, L, scratch, z, Rinv, c, model, sx, sy, logw)
+    else:
+        _move_weigh_serial(particles, F, L, scratch, z, Rinv, c, model, sx, sy, logw)
+    # 4. normalise: one exp per particle; logw temporarily holds w_i / w_max
+    top = -np.inf
     for i in range(N):
-        logw[i] -= lse0
-    log_ev = 0.0
-    if z.shape[0] > 0:
-        _add_loglik(particles, z, Rinv, logdetR, model, sx, sy, logw)
-        log_ev = logsumexp_kernel(logw)
-        if log_ev == -np.inf:
-            # every particle has zero likelihood: keep the prior weights
-            for i in range(N):
-                logw[i] = -math.log(N)
-        else:
-            for i in range(N):
-                logw[i] -= log_ev
-    # ESS from normalised log-weights
+        if logw[i] > top:
+            top = logw[i]
+    dead = top == -np.inf
+    if dead:
+        # every particle has zero likelihood: evidence 0, fall back to uniform weights
+        for i in range(N):
+            logw[i] = 0.0
+        top = 0.0
+    s1 = 0.0
     s2 = 0.0
     for i in range(N):
-        e = math.exp(logw[i])
+        e = math.exp(logw[i] - top)
+        logw[i] = e
+        s1 += e
         s2 += e * e
-    ess = 1.0 / s2
+    ess = s1 * s1 / s2
+    if dead:
+        log_ev = -np.inf
+    elif d > 0:
+        log_ev = top + math.log(s1) - lse0
+    else:
+        log_ev = 0.0
     resampled = False
     if ess_threshold >= 1.0 or ess < ess_threshold * N:
         resampled = True
-        # systematic resampling using normalised weights in place
-        u0 = rng.random()
-        j = 0
-        c = math.exp(logw[0])
+        idx = np.empty(N, dtype=np.int64)
+        _systematic_marks(logw, s1, rng.random(), idx)
         for i in range(N):
-            pos = (u0 + i) / N
-            while pos >= c and j < N - 1:
-                j += 1
-                c += math.exp(logw[j])
+            j = idx[i]
             for a in range(n):
                 scratch[i, a] = particles[j, a]
         lu = -math.log(N)
@@ -673,6 +788,10 @@ def bootstrap_step_kernel(particles, logw, F, L, z, Rinv, logdetR, model, sx, sy
             logw[i] = lu
             for a in range(n):
                 particles[i, a] = scratch[i, a]
+    else:
+        ls1 = math.log(s1)
+        for i in range(N):
+            logw[i] = math.log(logw[i]) - ls1
     return log_ev, ess, resampled
 
 
