@@ -1,5 +1,4 @@
 """Tests for trackcore.filters.imm."""
-import math
 
 import numpy as np
 import pytest

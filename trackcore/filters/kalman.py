@@ -23,7 +23,7 @@ import numba as nb
 import numpy as np
 
 from ..core.logmath import LOG_2PI
-from ..core.validation import as_array, as_covariance, as_int, as_matrix, as_vector
+from ..core.validation import as_array, as_vector
 from ..models.measurement import wrap_angle_kernel
 from ._fastcheck import checked, checked_cov
 
