@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from trackcore.detection import (SPRT_H0, SPRT_H1, SPRT_UNDECIDED, SprtState, sprt_decide,
+from trackcore.detection import (sprt_summary, SPRT_H0, SPRT_H1, SPRT_UNDECIDED, SprtState, sprt_decide,
                                  sprt_step, sprt_symmetric_error, sprt_test, sprt_thresholds,
                                  wald_asn, wald_error_probabilities, wald_gaussian_oc_asn,
                                  wald_oc)
@@ -140,3 +140,20 @@ def test_thresholds_property(pm, pf):
     pf2, pm2 = wald_error_probabilities(g0, g1)
     assert pf2 == pytest.approx(pf, rel=1e-8)
     assert pm2 == pytest.approx(pm, rel=1e-8)
+
+
+def test_summary():
+    llr = np.array([[-1.0, -3.0, -5.0], [1.0, 3.0, 4.0], [-0.5, 0.5, -0.5], [-4.0, -4.0, -4.0]])
+    s = sprt_summary(llr, -2.0, 2.0)
+    assert (s.n_runs, s.p_correct, s.p_wrong, s.p_undecided) == (4, 0.5, 0.25, 0.25)
+    assert s.mean_scan_correct == 1.5 and s.mean_scan_wrong == 2.0 and s.mean_scan == pytest.approx(5 / 3)
+    assert s.counts_correct.tolist() == [1, 1, 0] and s.counts_wrong.tolist() == [0, 1, 0]
+    # mean path: [-1.125, -0.875, -1.375] never crosses +-2
+    assert s.mean_llr_crossing == 0
+    s1 = sprt_summary(llr, -2.0, 2.0, truth=1)
+    assert s1.p_correct == 0.25 and s1.p_wrong == 0.5
+    assert np.isnan(sprt_summary(llr[2:3], -2.0, 2.0).mean_scan_correct)
+    with pytest.raises(ValueError, match="truth"):
+        sprt_summary(llr, -2.0, 2.0, truth=2)
+    with pytest.raises(ValueError, match="llr"):
+        sprt_summary(np.zeros((0, 3)), -2.0, 2.0)

@@ -38,6 +38,8 @@ __all__ = [
     "sprt_test",
     "sprt_decide",
     "sprt_decide_kernel",
+    "SprtSummary",
+    "sprt_summary",
     "wald_error_probabilities",
     "wald_oc",
     "wald_asn",
@@ -253,3 +255,45 @@ def wald_gaussian_oc_asn(mean, var, gamma0, gamma1):
     if abs(h) < 1e-10:
         return L, -g0 * g1 / v
     return L, (L * g0 + (1.0 - L) * g1) / mu
+
+
+class SprtSummary(NamedTuple):
+    """Monte Carlo summary of SPRT runs whose true hypothesis is ``truth``."""
+    n_runs: int
+    p_correct: float          # fraction deciding the true hypothesis
+    p_wrong: float            # fraction deciding the other one
+    p_undecided: float        # fraction with no crossing within the data
+    mean_scan_correct: float  # mean decision scan of the correct decisions (NaN if none)
+    mean_scan_wrong: float    # mean decision scan of the wrong decisions (NaN if none)
+    mean_scan: float          # mean decision scan over all decided runs (NaN if none)
+    mean_llr_crossing: int    # first scan at which the run-averaged Lambda crosses a threshold (0: none)
+    counts_correct: np.ndarray  # (K,) number of correct decisions at scan k = 1..K
+    counts_wrong: np.ndarray    # (K,) number of wrong decisions at scan k
+
+
+def sprt_summary(llr, gamma0, gamma1, truth=SPRT_H0):
+    """Success rates, mean decision scans and the mean-Lambda crossing of ``llr`` (N, K).
+
+    ``truth`` is the hypothesis that generated the data (0 or 1).  The
+    mean-Lambda crossing is the first scan at which the average of ``llr`` over
+    the runs (paper eq 29) reaches ``gamma0`` or ``gamma1``.
+    """
+    L = as_array(llr, "llr", ndim=2)
+    if truth not in (SPRT_H0, SPRT_H1) or isinstance(truth, bool):
+        raise ValueError(f"truth must be 0 (H0) or 1 (H1), got {truth!r}")
+    if L.shape[0] == 0:
+        raise ValueError("llr must hold at least one run")
+    d, k = sprt_decide(L, gamma0, gamma1)
+    K = L.shape[1]
+    good = d == truth
+    bad = d == 1 - truth
+
+    def _mean(mask):
+        return float(k[mask].mean()) if np.any(mask) else float("nan")
+
+    md, mk = sprt_decide(L.mean(axis=0), gamma0, gamma1)
+    return SprtSummary(L.shape[0], float(good.mean()), float(bad.mean()),
+                       float(np.mean(d == SPRT_UNDECIDED)), _mean(good), _mean(bad),
+                       _mean(d != SPRT_UNDECIDED), int(mk),
+                       np.bincount(k[good], minlength=K + 1)[1:],
+                       np.bincount(k[bad], minlength=K + 1)[1:])
