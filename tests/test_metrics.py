@@ -290,3 +290,47 @@ def test_cardinality_error():
         cardinality_error([1, 2], [np.nan, 2])
     with pytest.raises(ValueError, match="est_counts"):
         cardinality_error(np.zeros((2, 3)), np.zeros(4))
+
+
+# ----------------------------------------------------------------------------- numba kernels
+
+def test_min_cost_assignment_kernel_matches_scipy():
+    from scipy.optimize import linear_sum_assignment
+
+    from trackcore.metrics import min_cost_assignment_kernel
+
+    rng = np.random.default_rng(5)
+    for trial in range(300):
+        r = int(rng.integers(1, 9))
+        k = int(rng.integers(r, 11))
+        if trial % 3 == 0:
+            cost = rng.integers(0, 4, size=(r, k)).astype(float)   # many ties
+        else:
+            cost = rng.exponential(size=(r, k))
+        cols = np.full(r, -1, dtype=np.int64)
+        total = min_cost_assignment_kernel(cost, cols)
+        rows_s, cols_s = linear_sum_assignment(cost)
+        assert total == pytest.approx(cost[rows_s, cols_s].sum(), rel=1e-12, abs=1e-12)
+        assert len(set(cols.tolist())) == r and cols.min() >= 0 and cols.max() < k
+        assert total == pytest.approx(cost[np.arange(r), cols].sum(), rel=1e-12, abs=1e-12)
+
+
+def test_kernels_callable_from_numba():
+    import numba as nb
+
+    from trackcore.metrics import gospa_kernel, ospa_kernel
+
+    @nb.njit
+    def per_scan(Xs, Ys, c):
+        out = np.empty((Xs.shape[0], 2))
+        for k in range(Xs.shape[0]):
+            out[k, 0] = ospa_kernel(Xs[k], Ys[k], c, 2.0)[0]
+            out[k, 1] = gospa_kernel(Xs[k], Ys[k], c, 2.0, 2.0)[0]
+        return out
+
+    rng = np.random.default_rng(6)
+    Xs, Ys = rng.normal(size=(4, 3, 2)), rng.normal(size=(4, 3, 2))
+    got = per_scan(Xs, Ys, 1.5)
+    for k in range(4):
+        assert got[k, 0] == pytest.approx(_brute_ospa(Xs[k], Ys[k], 1.5, 2), abs=1e-12)
+        assert got[k, 1] == pytest.approx(_brute_gospa(Xs[k], Ys[k], 1.5, 2, 2), abs=1e-12)

@@ -11,17 +11,21 @@ Conventions
   each an ``(m, d)`` array of points (``[]`` or a ``(0, d)`` array for the empty
   set), like Stone Soup's ``compute_gospa_metric(measured_states, truth_states)``.
 * OSPA :cite:p:`schuhmacher2008ospa` minimises
-  :math:`\\sum \\min(d, c)^p` exactly with ``scipy.optimize.linear_sum_assignment``.
+  :math:`\\sum \\min(d, c)^p` exactly with a numba Hungarian algorithm
+  (:func:`min_cost_assignment_kernel`, checked against
+  ``scipy.optimize.linear_sum_assignment`` in the tests); ``ospa_kernel`` and
+  ``gospa_kernel`` can be called from other numba kernels.
   GOSPA :cite:p:`rahmathullah2017gospa` uses the same assignment; its components
   (localisation, missed, false) are reported, as in Stone Soup, in units of
   distance to the power ``p`` so that ``distance**p = localisation + missed + false``.
 """
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
+import numba as nb
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 from scipy.stats import chi2
 
 from .core.validation import as_array, as_int, as_positive, as_scalar
@@ -39,6 +43,9 @@ __all__ = [
     "ospa",
     "gospa",
     "cardinality_error",
+    "ospa_kernel",
+    "gospa_kernel",
+    "min_cost_assignment_kernel",
 ]
 
 
@@ -238,34 +245,180 @@ def _order(p, name="p"):
     return p
 
 
-def _capped_distances(X, Y, c):
-    diff = X[:, None, :] - Y[None, :, :]
-    return np.minimum(np.sqrt(np.sum(diff * diff, axis=-1)), c)
+@nb.njit(cache=True)
+def min_cost_assignment_kernel(cost, row_to_col):
+    """Exact minimum-cost assignment of every row of ``cost`` (r, k), ``r <= k``.
 
-
-def _capped_assignment(X, Y, c, p):
-    """Optimal assignment of min(m, n) pairs minimising sum min(d, c)**p.
-
-    Returns the capped distances of the assigned pairs.
+    Shortest-augmenting-path Hungarian algorithm with dual potentials,
+    O(r^2 k); writes the column of each row into ``row_to_col`` (r,) and
+    returns the minimum total cost.  ``cost`` must be finite.  Same optimum as
+    ``scipy.optimize.linear_sum_assignment`` (ties may be broken differently).
     """
-    capped = _capped_distances(X, Y, c)
-    rows, cols = linear_sum_assignment(capped if p == 1.0 else capped ** p)
-    return capped[rows, cols]
+    r, k = cost.shape
+    u = np.zeros(r + 1)
+    v = np.zeros(k + 1)
+    owner = np.zeros(k + 1, dtype=np.int64)     # 1-based row assigned to column j (0: none)
+    way = np.zeros(k + 1, dtype=np.int64)
+    minv = np.empty(k + 1)
+    used = np.empty(k + 1, dtype=np.bool_)
+    for i in range(1, r + 1):
+        owner[0] = i
+        j0 = 0
+        for j in range(k + 1):
+            minv[j] = np.inf
+            used[j] = False
+        while True:
+            used[j0] = True
+            i0 = owner[j0]
+            delta = np.inf
+            j1 = 0
+            for j in range(1, k + 1):
+                if not used[j]:
+                    cur = cost[i0 - 1, j - 1] - u[i0] - v[j]
+                    if cur < minv[j]:
+                        minv[j] = cur
+                        way[j] = j0
+                    if minv[j] < delta:
+                        delta = minv[j]
+                        j1 = j
+            for j in range(k + 1):
+                if used[j]:
+                    u[owner[j]] += delta
+                    v[j] -= delta
+                else:
+                    minv[j] -= delta
+            j0 = j1
+            if owner[j0] == 0:
+                break
+        while True:
+            j1 = way[j0]
+            owner[j0] = owner[j1]
+            j0 = j1
+            if j0 == 0:
+                break
+    total = 0.0
+    for j in range(1, k + 1):
+        if owner[j] != 0:
+            row_to_col[owner[j] - 1] = j - 1
+    for i in range(r):
+        total += cost[i, row_to_col[i]]
+    return total
 
 
-def _bottleneck_value(cost):
-    """Smallest achievable largest entry of a perfect matching of a square ``cost``."""
-    values = np.unique(cost)
-    lo, hi = 0, values.size - 1
+@nb.njit(cache=True)
+def _capped_distances_kernel(A, B, c):
+    """min(c, ||a_i - b_j||) for the rows of A (r, d) and B (k, d)."""
+    r, d = A.shape
+    k = B.shape[0]
+    D = np.empty((r, k))
+    for i in range(r):
+        for j in range(k):
+            s = 0.0
+            for t in range(d):
+                e = A[i, t] - B[j, t]
+                s += e * e
+            D[i, j] = min(math.sqrt(s), c)
+    return D
+
+
+@nb.njit(cache=True)
+def _assigned_capped(A, B, c, p):
+    """Capped distances of the optimal assignment of all rows of A (r <= k rows of B)."""
+    D = _capped_distances_kernel(A, B, c)
+    r, k = D.shape
+    cost = D.copy()
+    if p != 1.0:
+        for i in range(r):
+            for j in range(k):
+                cost[i, j] = D[i, j] ** p
+    cols = np.empty(r, dtype=np.int64)
+    min_cost_assignment_kernel(cost, cols)
+    out = np.empty(r)
+    for i in range(r):
+        out[i] = D[i, cols[i]]
+    return out
+
+
+@nb.njit(cache=True)
+def _bottleneck_kernel(D):
+    """Smallest achievable largest entry of a perfect matching of a square ``D``."""
+    n = D.shape[0]
+    values = np.unique(D.ravel())
+    lo, hi = 0, values.shape[0] - 1
+    over = np.empty((n, n))
+    cols = np.empty(n, dtype=np.int64)
     while lo < hi:
         mid = (lo + hi) // 2
-        over = (cost > values[mid]).astype(float)
-        r, k = linear_sum_assignment(over)
-        if over[r, k].sum() == 0.0:
+        for i in range(n):
+            for j in range(n):
+                over[i, j] = 1.0 if D[i, j] > values[mid] else 0.0
+        if min_cost_assignment_kernel(over, cols) == 0.0:
             hi = mid
         else:
             lo = mid + 1
-    return float(values[lo])
+    return values[lo]
+
+
+@nb.njit(cache=True)
+def ospa_kernel(X, Y, c, p):
+    """OSPA ``(distance, localisation, cardinality)`` for valid float64 ``(m, d)``/``(n, d)``
+    point arrays, ``c > 0`` and ``p >= 1`` (``inf`` allowed).  Callable from other kernels."""
+    m = X.shape[0]
+    n = Y.shape[0]
+    if m > n:
+        X, Y = Y, X
+        m, n = n, m
+    if n == 0:
+        return 0.0, 0.0, 0.0
+    if p == np.inf:
+        if m != n:
+            return c, 0.0, c
+        v = _bottleneck_kernel(_capped_distances_kernel(X, Y, c))
+        return v, v, 0.0
+    if m == 0:
+        return c, 0.0, c
+    d = _assigned_capped(X, Y, c, p)
+    loc_p = 0.0
+    for i in range(m):
+        loc_p += d[i] ** p
+    loc_p /= n
+    card_p = c ** p * (n - m) / n
+    return (loc_p + card_p) ** (1.0 / p), loc_p ** (1.0 / p), card_p ** (1.0 / p)
+
+
+@nb.njit(cache=True)
+def gospa_kernel(X, Y, c, p, alpha):
+    """GOSPA ``(distance, localisation, missed, false, n_missed, n_false)`` for valid
+    float64 estimates ``X`` (nx, d) and truth ``Y`` (ny, d), ``c > 0``, finite
+    ``p >= 1``, ``0 < alpha <= 2``.  Callable from other kernels."""
+    nx = X.shape[0]
+    ny = Y.shape[0]
+    unit = c ** p / alpha
+    loc = 0.0
+    n_cut = 0
+    if nx > 0 and ny > 0:
+        if nx <= ny:
+            d = _assigned_capped(X, Y, c, p)
+        else:
+            d = _assigned_capped(Y, X, c, p)
+        for i in range(d.shape[0]):
+            if alpha == 2.0:
+                if d[i] < c:
+                    loc += d[i] ** p
+                else:
+                    n_cut += 1
+            else:
+                loc += d[i] ** p
+    n_assigned = min(nx, ny) - n_cut
+    if alpha == 2.0:
+        n_missed = ny - n_assigned
+        n_false = nx - n_assigned
+    else:
+        n_missed = max(ny - nx, 0)
+        n_false = max(nx - ny, 0)
+    missed = unit * n_missed
+    false = unit * n_false
+    return (loc + missed + false) ** (1.0 / p), loc, missed, false, n_missed, n_false
 
 
 def ospa(X, Y, c, p=1):
@@ -275,33 +428,20 @@ def ospa(X, Y, c, p=1):
               \\min(c, \\|x_i - y_{\\pi(i)}\\|)^p + c^p (n - m)\\big)\\Big)^{1/p},
               \\quad m \\le n,
 
-    :cite:p:`schuhmacher2008ospa`.  Returns :class:`OSPAResult`
-    ``(distance, localisation, cardinality)`` where
+    :cite:p:`schuhmacher2008ospa`, with the exact optimal assignment (minimum
+    of the sum of ``p``-th powers; :func:`min_cost_assignment_kernel`).
+    Returns :class:`OSPAResult` ``(distance, localisation, cardinality)`` where
     ``localisation = (min_pi sum min(c, d)^p / n)^(1/p)`` and
     ``cardinality = (c^p (n - m) / n)^(1/p)``.  Both sets empty gives zeros.
     ``p = inf`` is allowed (distance ``c`` if the cardinalities differ, else the
-    smallest achievable largest cut-off distance).
+    smallest achievable largest cut-off distance).  Inside numba code call
+    :func:`ospa_kernel` directly.
     """
     c = as_positive(c, "c")
     p = _order(p)
     X, Y = _point_sets(X, Y)
-    m, n = X.shape[0], Y.shape[0]
-    if m > n:
-        X, Y, m, n = Y, X, n, m
-    if n == 0:
-        return OSPAResult(0.0, 0.0, 0.0)
-    if np.isinf(p):
-        if m != n:
-            return OSPAResult(c, 0.0, c)
-        v = _bottleneck_value(_capped_distances(X, Y, c))
-        return OSPAResult(v, v, 0.0)
-    if m == 0:
-        return OSPAResult(c, 0.0, c)
-    d = _capped_assignment(X, Y, c, p)
-    loc_p = float(np.sum(d ** p)) / n
-    card_p = c ** p * (n - m) / n
-    return OSPAResult(float((loc_p + card_p) ** (1.0 / p)), float(loc_p ** (1.0 / p)),
-                      float(card_p ** (1.0 / p)))
+    dist, loc, card = ospa_kernel(X, Y, c, p)
+    return OSPAResult(float(dist), float(loc), float(card))
 
 
 def gospa(X, Y, c, p=2, alpha=2):
@@ -319,7 +459,7 @@ def gospa(X, Y, c, p=2, alpha=2):
     another ``alpha`` the decomposition into missed/false is not defined by the
     paper; pairs capped at ``c`` then stay in ``localisation`` (each costing
     ``c^p``) and ``missed``/``false`` hold only the cardinality surplus
-    ``c^p/alpha * ||X| - |Y||``.
+    ``c^p/alpha * ||X| - |Y||``.  Inside numba code call :func:`gospa_kernel`.
     """
     c = as_positive(c, "c")
     p = _order(p)
@@ -329,29 +469,9 @@ def gospa(X, Y, c, p=2, alpha=2):
     if not 0.0 < alpha <= 2.0:
         raise ValueError(f"alpha must be in (0, 2], got {alpha}")
     X, Y = _point_sets(X, Y)
-    nx, ny = X.shape[0], Y.shape[0]
-    unit = c ** p / alpha
-    loc = 0.0
-    n_cut = 0
-    if nx and ny:
-        d = _capped_assignment(X, Y, c, p)
-        if alpha == 2.0:
-            close = d < c
-            loc = float(np.sum(d[close] ** p))
-            n_cut = int(d.size - np.count_nonzero(close))
-        else:
-            loc = float(np.sum(d ** p))
-    n_assigned = min(nx, ny) - n_cut
-    n_missed = ny - n_assigned
-    n_false = nx - n_assigned
-    if alpha == 2.0:
-        missed, false = unit * n_missed, unit * n_false
-    else:
-        missed, false = unit * max(ny - nx, 0), unit * max(nx - ny, 0)
-        n_missed, n_false = max(ny - nx, 0), max(nx - ny, 0)
-    total = loc + missed + false
-    return GOSPAResult(float(total ** (1.0 / p)), loc, float(missed), float(false),
-                       int(n_missed), int(n_false))
+    dist, loc, missed, false, n_missed, n_false = gospa_kernel(X, Y, c, p, alpha)
+    return GOSPAResult(float(dist), float(loc), float(missed), float(false), int(n_missed),
+                       int(n_false))
 
 
 # --------------------------------------------------------------------------- cardinality
