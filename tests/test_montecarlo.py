@@ -7,7 +7,7 @@ from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 import numpy as np
 import pytest
 
-from trackcore.montecarlo import default_chunksize, run, stack_results
+from trackcore.montecarlo import default_chunksize, process_pool, run, stack_results
 
 Result = namedtuple("Result", "mean path")
 
@@ -77,6 +77,17 @@ def test_thread_and_process_pools_bit_identical(chunksize):
         _assert_identical(run(random_walk_trial, 50, 5, executor=ex, chunksize=chunksize), serial)
     with ProcessPoolExecutor(max_workers=2) as ex:
         _assert_identical(run(random_walk_trial, 50, 5, executor=ex, chunksize=chunksize), serial)
+
+
+@pytest.mark.parametrize("start_method", ["forkserver", "spawn"])
+def test_process_pool_without_fork_bit_identical(start_method):
+    serial = run(random_walk_trial, 12, seed=6)
+    with process_pool(2, start_method=start_method) as ex:
+        _assert_identical(run(random_walk_trial, 12, 6, executor=ex), serial)
+    with pytest.raises(ValueError, match="start_method"):
+        process_pool(2, start_method="fork")
+    with pytest.raises(ValueError, match="max_workers"):
+        process_pool(0)
 
 
 def test_dask_executor_bit_identical():

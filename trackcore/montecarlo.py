@@ -15,7 +15,18 @@ its generators where it runs.  Runs are sent in chunks so that per-task
 overhead stays small.
 
 For process pools and Dask the ``trial`` function (and ``args``/``kwargs``)
-must be picklable: define it at module level in an importable module.
+must be picklable: define it at module level in an importable module (e.g. a
+``trackcore.scenarios`` trial).  Dask pickles with ``cloudpickle`` and so also
+accepts functions defined in a notebook cell.
+
+Process pools and OpenMP
+------------------------
+numba's default threading layer on Linux is GNU OpenMP, and a process that has
+run a ``parallel=True`` kernel must not ``fork()``: the children abort ("fork()
+called from a process already using GNU OpenMP") and a fork-based
+``ProcessPoolExecutor`` reports ``BrokenProcessPool``.  :func:`process_pool`
+returns a pool whose workers start from a clean ``forkserver`` (or ``spawn``)
+process instead; use it, or Dask, rather than a bare ``ProcessPoolExecutor()``.
 
 Progress
 --------
@@ -30,15 +41,16 @@ from __future__ import annotations
 
 import logging
 import math
+import multiprocessing
 import sys
-from concurrent.futures import Executor, FIRST_COMPLETED, wait
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
 import numpy as np
 
 from .core.rng import spawn_seed_sequences
 from .core.validation import as_count, as_int
 
-__all__ = ["run", "stack_results", "default_chunksize"]
+__all__ = ["run", "stack_results", "default_chunksize", "process_pool"]
 
 logger = logging.getLogger("trackcore.montecarlo")
 
@@ -70,6 +82,21 @@ def default_chunksize(n_runs: int) -> int:
     """Runs per task on an executor: ``ceil(n_runs / 32)`` (at least 1)."""
     n_runs = as_count(n_runs, "n_runs")
     return max(1, math.ceil(n_runs / _TARGET_TASKS))
+
+
+def process_pool(max_workers=None, start_method="forkserver"):
+    """A ``ProcessPoolExecutor`` whose workers do not ``fork()`` this process.
+
+    ``start_method`` is ``"forkserver"`` (default) or ``"spawn"``; both are safe
+    after numba has started OpenMP threads (see the module docstring).  Use as a
+    context manager: ``with process_pool(2) as ex: run(trial, n, seed, executor=ex)``.
+    """
+    if start_method not in ("forkserver", "spawn"):
+        raise ValueError(f"start_method must be 'forkserver' or 'spawn', got {start_method!r}")
+    if max_workers is not None:
+        max_workers = as_int(max_workers, "max_workers", minimum=1)
+    return ProcessPoolExecutor(max_workers=max_workers,
+                               mp_context=multiprocessing.get_context(start_method))
 
 
 def _progress_callback(progress):
