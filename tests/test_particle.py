@@ -348,11 +348,11 @@ def test_loglik_parallel_path_equals_serial_path():
     X = rng.standard_normal((50_000, 4)) * 100  # above the prange threshold
     z = np.array([120.0, 0.3])
     R = np.diag([4.0, 0.01])
-    full = loglik_range_bearing(X, z, R)
+    full = loglik_range_bearing(X, z, R, parallel=True)
     parts = np.concatenate([loglik_range_bearing(X[i:i + 10_000], z, R)
                             for i in range(0, 50_000, 10_000)])
     np.testing.assert_array_equal(full, parts)
-    fullp = loglik_gaussian_position(X, z, R)
+    fullp = loglik_gaussian_position(X, z, R, parallel=True)
     partsp = np.concatenate([loglik_gaussian_position(X[i:i + 10_000], z, R)
                              for i in range(0, 50_000, 10_000)])
     np.testing.assert_array_equal(fullp, partsp)
@@ -389,10 +389,13 @@ def test_bootstrap_step_equals_composition(N):
     np.testing.assert_allclose(lw, -np.log(N))
     assert res.log_evidence == pytest.approx(ref_lev, rel=1e-10, abs=1e-10)
     assert res.ess == pytest.approx(ref_ess, rel=1e-9)
-    # determinism
-    X2, lw2 = X.copy(), logw.copy()
-    bootstrap_step(X2, lw2, F, L, z, R, np.random.default_rng(21), sensor=(1.0, 2.0))
-    np.testing.assert_array_equal(X2, Xw)
+    # determinism, serial and threaded
+    for parallel in (False, True):
+        X2, lw2 = X.copy(), logw.copy()
+        r2 = bootstrap_step(X2, lw2, F, L, z, R, np.random.default_rng(21), sensor=(1.0, 2.0),
+                            parallel=parallel)
+        np.testing.assert_array_equal(X2, Xw)
+        assert r2.log_evidence == res.log_evidence and r2.ess == res.ess
 
 
 def test_bootstrap_step_empty_scan_and_threshold():

@@ -7,9 +7,11 @@ take plain arrays (and a ``numpy.random.Generator`` where randomness is
 needed) and can be called from other numba kernels.
 
 Random draws are always made serially in a fixed order, so every result is
-a deterministic function of the generator's state.  Only the per-particle
-likelihood evaluation may run in parallel (element-wise, hence
-deterministic); all reductions are serial.
+a deterministic function of the generator's state.  On request
+(``parallel=True``) the element-wise move-and-weigh / likelihood passes run
+on numba threads (identical results); all reductions are serial.  Serial is
+the default: on a shared machine, or under a Monte Carlo that already uses
+every core, threads slow these loops down.
 
 Resampling schemes (all O(N), one pass over the cumulative weights):
 
@@ -75,7 +77,12 @@ _MODELS = {"position": MODEL_POSITION, "range_bearing": MODEL_RANGE_BEARING}
 #: names accepted by ``scheme=``
 RESAMPLING_SCHEMES = ("systematic", "stratified", "residual", "multinomial")
 
-# above this many particles the move-and-weigh pass runs with prange
+# Particle loops run serially unless the caller asks for threads
+# (``parallel=True`` / ``parallel_min``): on a shared machine, or inside a
+# Monte Carlo that already runs one process per core, nested threading is a
+# slowdown (measured: 2-6x slower at N = 1e5 with a load average of 5).
+_SERIAL = 2 ** 62
+# threshold used when a public function is called with parallel=True
 _PARALLEL_MIN = 20000
 
 # Start numba's thread pool now.  A cached ``parallel=True`` kernel that is
@@ -572,30 +579,31 @@ def _ll_parallel(particles, z, Rinv, c, model, sx, sy, out):
 
 
 @nb.njit(cache=True)
-def _add_loglik(particles, z, Rinv, logdetR, model, sx, sy, out):
+def _add_loglik(particles, z, Rinv, logdetR, model, sx, sy, out, parallel_min=_SERIAL):
     d = z.shape[0]
     c = -0.5 * (d * 1.8378770664093453 + logdetR)
-    if particles.shape[0] >= _PARALLEL_MIN:
+    if particles.shape[0] >= parallel_min:
         _ll_parallel(particles, z, Rinv, c, model, sx, sy, out)
     else:
         _ll_serial(particles, z, Rinv, c, model, sx, sy, out)
 
 
 @nb.njit(cache=True)
-def loglik_gaussian_position_kernel(particles, z, Rinv, logdetR, out):
+def loglik_gaussian_position_kernel(particles, z, Rinv, logdetR, out, parallel_min=_SERIAL):
     """``out[i] += log N(z; particles[i, :d], R)`` (``d = len(z)``), given
     ``Rinv = R^-1`` and ``logdetR = log|R|``."""
-    _add_loglik(particles, z, Rinv, logdetR, 0, 0.0, 0.0, out)
+    _add_loglik(particles, z, Rinv, logdetR, 0, 0.0, 0.0, out, parallel_min)
 
 
 @nb.njit(cache=True)
-def loglik_range_bearing_kernel(particles, z, Rinv, logdetR, sx, sy, out):
+def loglik_range_bearing_kernel(particles, z, Rinv, logdetR, sx, sy, out,
+                                parallel_min=_SERIAL):
     """``out[i] += log N(z - h(x_i); 0, R)``, ``h = (range, bearing)`` from the
     sensor at ``(sx, sy)``, bearing innovation wrapped to (-pi, pi]."""
-    _add_loglik(particles, z, Rinv, logdetR, 1, sx, sy, out)
+    _add_loglik(particles, z, Rinv, logdetR, 1, sx, sy, out, parallel_min)
 
 
-def loglik_gaussian_position(particles, z, R):
+def loglik_gaussian_position(particles, z, R, *, parallel=False):
     """Log-likelihoods ``log N(z; x_i[:d], R)`` of each particle, ``(N,)``.
 
     The first ``d = len(z)`` state components are the measured position.
@@ -607,7 +615,8 @@ def loglik_gaussian_position(particles, z, R):
         raise ValueError(f"z must have 1..{X.shape[1]} components, got {d}")
     Rinv, logdet = _inv_logdet(as_square_matrix(R, "R", d))
     out = np.zeros(X.shape[0])
-    loglik_gaussian_position_kernel(X, z, Rinv, logdet, out)
+    loglik_gaussian_position_kernel(X, z, Rinv, logdet, out,
+                                    _PARALLEL_MIN if parallel else _SERIAL)
     return out
 
 
@@ -616,7 +625,7 @@ def _sensor(sensor):
     return float(s[0]), float(s[1])
 
 
-def loglik_range_bearing(particles, z, R, sensor=(0.0, 0.0)):
+def loglik_range_bearing(particles, z, R, sensor=(0.0, 0.0), *, parallel=False):
     """Log-likelihoods of a range-bearing measurement ``z = (r, theta)``.
 
     ``particles`` have ``[x, y, ...]`` first; bearing ``atan2(y - sy, x - sx)``;
@@ -629,7 +638,8 @@ def loglik_range_bearing(particles, z, R, sensor=(0.0, 0.0)):
     Rinv, logdet = _inv_logdet(as_square_matrix(R, "R", 2))
     sx, sy = _sensor(sensor)
     out = np.zeros(X.shape[0])
-    loglik_range_bearing_kernel(X, z, Rinv, logdet, sx, sy, out)
+    loglik_range_bearing_kernel(X, z, Rinv, logdet, sx, sy, out,
+                                _PARALLEL_MIN if parallel else _SERIAL)
     return out
 
 
@@ -707,7 +717,7 @@ def _move_weigh_parallel(particles, F, L, noise, z, Rinv, c, model, sx, sy, logw
 
 @nb.njit(cache=True)
 def bootstrap_step_kernel(particles, logw, F, L, z, Rinv, logdetR, model, sx, sy,
-                          rng, ess_threshold, scratch, parallel_min=_PARALLEL_MIN):
+                          rng, ess_threshold, scratch, parallel_min=_SERIAL):
     """One bootstrap-PF step in place: propagate, weight, normalise, resample.
 
     ``particles`` ``(N, n)`` and ``logw`` ``(N,)`` are overwritten; ``scratch``
@@ -806,7 +816,7 @@ class BootstrapStep(NamedTuple):
 
 
 def bootstrap_step(particles, logw, F, L, z, R, rng, model="range_bearing", *,
-                   sensor=(0.0, 0.0), ess_threshold=1.0, scratch=None):
+                   sensor=(0.0, 0.0), ess_threshold=1.0, scratch=None, parallel=False):
     """Fused predict-weight-resample bootstrap particle-filter step.
 
     ``particles`` ``(N, n)`` (C-contiguous float64, updated in place when it
@@ -816,7 +826,9 @@ def bootstrap_step(particles, logw, F, L, z, R, rng, model="range_bearing", *,
     ``model="range_bearing"``; ``(d,)`` position for ``model="position"``;
     empty for an empty scan); ``R`` its covariance.  Resamples
     systematically when ``ESS < ess_threshold * N`` (always for the default
-    ``ess_threshold=1``).  Returns a :class:`BootstrapStep`.
+    ``ess_threshold=1``).  ``parallel=True`` runs the move-and-weigh pass on
+    numba threads for ``N >= 20000`` (same results; only worth it on idle
+    cores).  Returns a :class:`BootstrapStep`.
     """
     rng = as_rng(rng)
     if model not in _MODELS:
@@ -852,5 +864,6 @@ def bootstrap_step(particles, logw, F, L, z, R, rng, model="range_bearing", *,
               and scratch.flags.c_contiguous and scratch.shape == X.shape):
         raise ValueError(f"scratch must be a C-contiguous float64 array of shape {X.shape}")
     log_ev, ess, res = bootstrap_step_kernel(X, lw, F, L, z, Rinv, logdet, code, sx, sy,
-                                             rng, ess_threshold, scratch)
+                                             rng, ess_threshold, scratch,
+                                             _PARALLEL_MIN if parallel else _SERIAL)
     return BootstrapStep(X, lw, float(log_ev), float(ess), bool(res))
