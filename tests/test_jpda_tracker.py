@@ -236,3 +236,12 @@ def test_wilson_interval():
     assert hi == pytest.approx(1.0) and lo == pytest.approx(0.9287, abs=1e-4)
     with pytest.raises(ValueError):
         wilson_interval(3, 2)
+
+
+def test_vehicle_mask_iou_perfect_and_empty():
+    from trackcore.scenarios.feature_metrics import vehicle_mask_iou
+    sc = render_scene("S2a", np.random.default_rng(3))
+    truth = sc.labels[N_WARMUP:] > 0
+    v = vehicle_mask_iou(sc, truth)
+    assert len(v) == sc.visible.sum() and np.allclose(v, 1.0)
+    assert np.all(vehicle_mask_iou(sc, np.zeros_like(truth)) == 0.0)

@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-__all__ = ["SceneMetrics", "match_tracks", "scene_metrics", "wilson_interval"]
+__all__ = ["SceneMetrics", "match_tracks", "scene_metrics", "wilson_interval", "vehicle_mask_iou"]
 
 _REPORTED = ("confirmed", "memory")
 
@@ -182,3 +182,24 @@ def scene_metrics(scene, reports, match_gate=10.0):
                         float(mota), motp, crossing, follower_delay, float(ev.mean()),
                         int(ev.max()), (vk - vv) / vk if vk else 0.0,
                         float(np.mean([r.assoc_ms for r in reports])))
+
+
+def vehicle_mask_iou(scene, masks, margin=3):
+    """IoU of the segmented foreground against every fully visible vehicle's
+    rendered mask, frame by frame, inside the vehicle's box grown by
+    ``margin`` px (so other objects do not count).  Returns an array of IoUs."""
+    from ..detection.image import mask_iou
+    K = scene.xy.shape[0]
+    n0 = scene.frames.shape[0] - K
+    out = []
+    for k in range(K):
+        lab = scene.labels[n0 + k]
+        for i in np.nonzero(scene.is_vehicle)[0]:
+            if not scene.visible[k, i]:
+                continue
+            truth = lab == i + 1
+            rr, cc = np.nonzero(truth)
+            r0, r1 = max(rr.min() - margin, 0), rr.max() + margin + 1
+            c0, c1 = max(cc.min() - margin, 0), cc.max() + margin + 1
+            out.append(mask_iou(masks[k][r0:r1, c0:c1], truth[r0:r1, c0:c1]))
+    return np.array(out)
