@@ -116,3 +116,20 @@ def test_bad_input():
         simulate_hpda_scans(hpda_truth(), {"pd": 0.9}, np.random.default_rng())
     with pytest.raises(ValueError, match="T"):
         hpda_truth(T=-1)
+
+
+def test_trial_runs_every_algorithm_and_delays():
+    from trackcore.scenarios import HPDA_ALGORITHMS, hpda_tracker_configs, run_hpda_trial
+    cfgs = hpda_tracker_configs(hpda_parameters(1), hpda={"n_particles": 50})
+    assert set(cfgs) == set(HPDA_ALGORITHMS) and cfgs["hpda"].n_particles == 50
+    out = run_hpda_trial(np.random.default_rng(0), 1, ("hpda",),
+                         overrides={"hpda": {"n_particles": 100}})
+    rec = out["hpda"]
+    assert rec["count"].shape == (451,)
+    assert np.all(rec["conf_delay"][~np.isnan(rec["conf_delay"])] >= 0)
+    # targets 4 and 5 live to the last scan: no termination delay
+    assert np.isnan(rec["term_delay"][3]) and np.isnan(rec["term_delay"][4])
+    with pytest.raises(ValueError, match="unknown algorithm"):
+        run_hpda_trial(np.random.default_rng(0), 1, ("kalman",))
+    with pytest.raises(ValueError, match="unknown algorithm"):
+        hpda_tracker_configs(hpda_parameters(1), foo={})

@@ -29,6 +29,9 @@ import numpy as np
 from ..core.validation import as_count, as_int, as_nonnegative, as_positive, as_probability, as_rng
 from ..detection.amplitude import exponential_amplitude_threshold
 from ..models.motion import coordinated_turn_transition, cv_transition
+from ..trackers.clustering_hybrid import ClusteringConfig, clustering_run
+from ..trackers.hpda_pf import HpdaPfConfig, hpda_pf_run
+from ..trackers.smc_phd import SmcPhdConfig, smc_phd_run
 
 __all__ = [
     "HPDA_TABLE1",
@@ -39,6 +42,10 @@ __all__ = [
     "hpda_truth",
     "hpda_true_count",
     "simulate_hpda_scans",
+    "hpda_tracker_configs",
+    "run_hpda_trial",
+    "HPDA_ALGORITHMS",
+    "track_delays",
 ]
 
 #: Table 1: (TID, birth scan, death scan, [x, y, vx, vy] at birth)
@@ -208,3 +215,105 @@ def simulate_hpda_scans(truth: HpdaTruth, params: HpdaParameters, rng) -> HpdaSc
     np.cumsum(counts, out=offsets[1:])
     return HpdaScans(np.ascontiguousarray(z[order]), np.ascontiguousarray(amp[order]),
                      offsets, origin[order])
+
+
+#: algorithm keys of :func:`run_hpda_trial`
+HPDA_ALGORITHMS = ("hpda", "phd", "clustering", "clustering_wide", "hpda_sn", "hpda_nn")
+
+
+def hpda_tracker_configs(params: HpdaParameters, **overrides):
+    """Tracker configurations for one environment: a dict with keys of
+    :data:`HPDA_ALGORITHMS` (``clustering_wide`` is the sensitivity variant
+    with ROI links on ``d^2 <= 9.21``; ``hpda_sn``/``hpda_nn`` use the
+    strongest/nearest-neighbour rule instead of eq 15).  ``overrides`` maps
+    an algorithm key to a dict of field overrides."""
+    if not isinstance(params, HpdaParameters):
+        raise TypeError(f"params must be HpdaParameters, got {type(params).__name__}")
+    common = dict(T=params.T, sigma_r=params.sigma_r, sigma_theta=params.sigma_theta,
+                  sigma_a=params.sigma_a, a_m=params.a_m)
+    lam = params.clutter_density_xy
+    cfgs = {
+        "hpda": HpdaPfConfig(pd=params.pd, snr=params.snr, clutter_density_xy=lam, **common),
+        "phd": SmcPhdConfig(pd=params.pd, clutter_density_xy=lam, **common),
+        "clustering": ClusteringConfig(pd=params.pd, clutter_density_xy=lam, **common),
+        "clustering_wide": ClusteringConfig(pd=params.pd, clutter_density_xy=lam, link_d2=9.21,
+                                            **common),
+        "hpda_sn": HpdaPfConfig(pd=params.pd, snr=params.snr, clutter_density_xy=lam,
+                                selection="strongest", **common),
+        "hpda_nn": HpdaPfConfig(pd=params.pd, snr=params.snr, clutter_density_xy=lam,
+                                selection="nearest", **common),
+    }
+    from dataclasses import replace
+    for key, ov in overrides.items():
+        if key not in cfgs:
+            raise ValueError(f"unknown algorithm {key!r}; expected one of {HPDA_ALGORITHMS}")
+        cfgs[key] = replace(cfgs[key], **ov)
+    return cfgs
+
+
+def _run_algorithm(key, cfg, scans, rng):
+    if key.startswith("hpda"):
+        return hpda_pf_run(scans.z, scans.amplitude, scans.offsets, cfg, rng)
+    if key == "phd":
+        return smc_phd_run(scans.z, scans.offsets, cfg, rng)
+    return clustering_run(scans.z, scans.offsets, cfg, rng)
+
+
+def track_delays(run, truth: HpdaTruth, radius=500.0):
+    """Confirmation delay (scans from birth until an estimate lies within
+    ``radius`` of the target; NaN if never) and termination delay (scans
+    after death until no estimate lies within ``radius`` of the target's
+    CV-extrapolated position; capped at the end of the run) per target."""
+    K, n_t = truth.alive.shape
+    conf = np.full(n_t, np.nan)
+    term = np.full(n_t, np.nan)
+    for t in range(n_t):
+        b, d = int(truth.births[t]), int(truth.deaths[t])
+        for k in range(b, min(d, K - 1) + 1):
+            n = run.n_estimates[k]
+            if n and np.min(np.hypot(*(run.estimates[k, :n, :2] - truth.states[k, t, :2]).T)) < radius:
+                conf[t] = k - b
+                break
+        if d >= K - 1:
+            continue
+        xd = truth.states[d, t]
+        for k in range(d + 1, K):
+            pos = xd[:2] + (k - d) * 10.0 * xd[2:]
+            n = run.n_estimates[k]
+            if not n or np.min(np.hypot(*(run.estimates[k, :n, :2] - pos).T)) >= radius:
+                term[t] = k - d
+                break
+        else:
+            term[t] = K - 1 - d
+    return conf, term
+
+
+def run_hpda_trial(rng, case, algorithms=("hpda", "phd", "clustering"), keep_estimates=False,
+                   overrides=None):
+    """One Monte Carlo run of the paper's experiment: simulate the scans of
+    environment ``case`` (variant-B truth) and run every tracker in
+    ``algorithms`` on them.  Random streams: ``rng.spawn(1 + len(algorithms))``
+    (data first).  Returns a dict ``{key: {"count", "aux", "conf_delay",
+    "term_delay", ["run"]}}`` plus ``"n_measurements"``."""
+    rng = as_rng(rng)
+    params = hpda_parameters(case)
+    truth = _TRUTH_CACHE.get("B")
+    if truth is None:
+        truth = _TRUTH_CACHE.setdefault("B", hpda_truth("B"))
+    cfgs = hpda_tracker_configs(params, **(overrides or {}))
+    streams = rng.spawn(1 + len(algorithms))
+    scans = simulate_hpda_scans(truth, params, streams[0])
+    out = {"n_measurements": int(scans.offsets[-1])}
+    for key, r in zip(algorithms, streams[1:]):
+        if key not in cfgs:
+            raise ValueError(f"unknown algorithm {key!r}; expected one of {HPDA_ALGORITHMS}")
+        res = _run_algorithm(key, cfgs[key], scans, r)
+        conf, term = track_delays(res, truth)
+        rec = {"count": res.count, "aux": res.aux, "conf_delay": conf, "term_delay": term}
+        if keep_estimates:
+            rec["run"] = res
+        out[key] = rec
+    return out
+
+
+_TRUTH_CACHE: dict = {}
