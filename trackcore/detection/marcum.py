@@ -63,6 +63,7 @@ __all__ = [
     "log_marcum_detection_probability",
     "log_marcum_miss_probability",
     "log_marcum_detection_probability_kernel",
+    "log_marcum_detection_probability_scalar_kernel",
     "swerling1_detection_probability",
     "swerling1_miss_probability",
     "square_law_threshold",
@@ -179,6 +180,12 @@ def log_marcum_detection_probability_kernel(snr, log_pfa, complement, out):
     mu = -log_pfa
     for i in range(snr.shape[0]):
         out[i] = _log_q1_side(snr[i], mu, complement)
+
+
+@nb.njit(cache=True)
+def log_marcum_detection_probability_scalar_kernel(snr, log_pfa):
+    """``log P_D`` of one detection (numba-callable): ``snr >= 0`` linear, ``log_pfa < 0``."""
+    return _log_q1_side(snr, -log_pfa, False)
 
 
 # ---------------------------------------------------------------------- wrappers

@@ -1,0 +1,314 @@
+"""Tests for trackcore.trackers.tbd_pf (chapter 003: TBD trackers A, B, C and extension P)."""
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from trackcore.core.logmath import logsumexp
+from trackcore.detection import log_marcum_detection_probability
+from trackcore.filters import effective_sample_size, noise_factor, propagate_linear
+from trackcore.models import cv_process_noise, cv_transition
+from trackcore.scenarios import TbdRadarParameters, simulate_tbd_radar, tbd_radar_truth
+from trackcore.trackers import (TbdTrackerConfig, direct_particle_log_weights, radial_velocity,
+                                range_azimuth_elevation, range_azimuth_elevation_jacobian,
+                                run_tbd_tracker, spherical_to_cartesian, tbd_measurement_errors,
+                                tbd_position_errors, tbd_track_lost, weighted_mean_detection)
+
+P0 = np.diag([300.0 ** 2] * 3 + [20.0 ** 2] * 3)
+
+
+def scans_from_list(scan_list):
+    """Flat scan arrays from a list of (positions, range_rate, snr) per scan."""
+    pos = [np.asarray(s[0], float).reshape(-1, 3) for s in scan_list]
+    off = np.zeros(len(pos) + 1, dtype=np.int64)
+    np.cumsum([p.shape[0] for p in pos], out=off[1:])
+    return SimpleNamespace(positions=np.vstack(pos) if pos else np.zeros((0, 3)),
+                           range_rate=np.concatenate([np.asarray(s[1], float) for s in scan_list]),
+                           snr=np.concatenate([np.asarray(s[2], float) for s in scan_list]),
+                           offsets=off)
+
+
+def straight_track(K=30, x0=(30e3, 10e3, 5e3, -150.0, 50.0, 0.0)):
+    F = cv_transition(1.0, dim=3)
+    xs = [np.array(x0, float)]
+    for _ in range(K - 1):
+        xs.append(F @ xs[-1])
+    return np.array(xs)
+
+
+# ----------------------------------------------------------------------------- errata
+def test_erratum2_dwna_q_matches_sampled_gamma_a():
+    # eq (3) corrected: w = Gamma a, a ~ N(0, sigma^2 I) has covariance Q of the DWNA model
+    T, sa = 1.0, 15.0
+    Gamma = np.vstack([0.5 * T ** 2 * np.eye(3), T * np.eye(3)])
+    rng = np.random.default_rng(1)
+    w = rng.standard_normal((100_000, 3)) * sa @ Gamma.T
+    Q = cv_process_noise(T, sa ** 2, dim=3, kind="dwna")
+    emp = np.cov(w.T)
+    d = np.sqrt(np.diag(Q))
+    assert np.max(np.abs(emp - Q) / np.outer(d, d)) < 0.02
+    # the particle propagation (foundation kernel with the rank-3 factor) has the same covariance
+    X = propagate_linear(np.zeros((100_000, 6)), cv_transition(T, 3), Q, rng)
+    assert np.max(np.abs(np.cov(X.T) - Q) / np.outer(d, d)) < 0.02
+    assert noise_factor(Q).shape == (6, 3)
+    # the printed "W" vector is not diag(Q) (nor dimensionally a noise sample)
+    printed = np.array([0.5 * sa ** 2 * T ** 2] * 3 + [sa ** 2 * T] * 3)
+    assert not np.allclose(printed, np.diag(Q))
+
+
+def test_erratum4_weighted_mean_of_equal_points_returns_the_point():
+    p = np.array([[31e3, 20e3, 7e3]] * 4)
+    pbar, rbar = weighted_mean_detection(p, [-180.0, -170.0, 10.0, 100.0], [3.0, 10.0, 20.0, 4.0],
+                                         [31.1e3, 20e3, 7e3], -180.0, 150.0, 40.0, 1e-6)
+    np.testing.assert_allclose(pbar, p[0], rtol=1e-14)
+    # the printed (1/m) sum w_j x_j would shrink it towards the radar by 1/m
+    assert np.linalg.norm(p[0] / 4) < np.linalg.norm(pbar) / 3
+
+
+def test_weighted_mean_formula():
+    rng = np.random.default_rng(3)
+    p = rng.normal(0, 500, (6, 3)) + [30e3, 20e3, 7e3]
+    rr = rng.normal(-150, 50, 6)
+    snr = rng.uniform(2, 30, 6)
+    ref = np.array([30e3, 20e3, 7e3])
+    w = np.exp(log_marcum_detection_probability(snr, 1e-6)
+               - np.linalg.norm(p - ref, axis=1) / 150.0 - np.abs(rr + 160.0) / 40.0)
+    w /= w.sum()
+    pbar, rbar = weighted_mean_detection(p, rr, snr, ref, -160.0, 150.0, 40.0, 1e-6)
+    np.testing.assert_allclose(pbar, w @ p, rtol=1e-12)
+    assert rbar == pytest.approx(w @ rr, rel=1e-12)
+    # m = 0: no pseudo-measurement; all weights underflowing: none either
+    assert weighted_mean_detection(np.zeros((0, 3)), [], [], ref, 0.0, 150.0, 40.0, 1e-6) == (None, None)
+    far = np.array([[1e306, 0.0, 0.0]])
+    assert weighted_mean_detection(far, [0.0], [5.0], ref, 0.0, 1e-3, 40.0, 1e-6) == (None, None)
+
+
+def test_direct_weights_match_brute_force():
+    rng = np.random.default_rng(4)
+    X = np.column_stack([rng.normal(30e3, 300, (50, 3)), rng.normal(-150, 20, (50, 3))])
+    p = rng.normal(30e3, 800, (7, 3))
+    rr = rng.normal(-150, 80, 7)
+    snr = rng.uniform(3, 40, 7)
+    got = direct_particle_log_weights(X, p, rr, snr, 150.0, 40.0, 1e-6)
+    lpd = log_marcum_detection_probability(snr, 1e-6)
+    d = np.linalg.norm(X[:, None, :3] - p[None], axis=2)
+    rd = radial_velocity(X)
+    want = logsumexp(lpd[None] - d / 150.0 - np.abs(rd[:, None] - rr[None]) / 40.0, axis=1)
+    np.testing.assert_allclose(got, want, rtol=1e-12)
+    # m = 0 leaves the weights unchanged (zero log-likelihood)
+    np.testing.assert_array_equal(direct_particle_log_weights(X, np.zeros((0, 3)), [], [], 150.0,
+                                                              40.0, 1e-6), np.zeros(50))
+    # far-away particles: weights underflow in linear space but stay finite in log space
+    far = direct_particle_log_weights(X + 1e7, p, rr, snr, 1.0, 40.0, 1e-6)
+    assert np.all(np.isfinite(far)) and np.all(np.exp(far) == 0.0)
+
+
+def test_erratum7_ess():
+    assert effective_sample_size(np.zeros(600)) == pytest.approx(600.0)
+    w = np.array([0.5, 0.25, 0.25])
+    assert effective_sample_size(np.log(w)) == pytest.approx(1.0 / np.sum(w ** 2))
+    # as printed, 1 / sum(w) is always 1
+    assert 1.0 / w.sum() == 1.0
+
+
+# ----------------------------------------------------------------------------- geometry
+def test_geometry_roundtrip_and_jacobian():
+    rng = np.random.default_rng(5)
+    X = np.column_stack([rng.uniform(-5e4, 5e4, (20, 2)), rng.uniform(1e3, 8e3, 20),
+                         rng.normal(0, 200, (20, 3))])
+    z = range_azimuth_elevation(X)
+    np.testing.assert_allclose(spherical_to_cartesian(z), X[:, :3], rtol=1e-12, atol=1e-8)
+    x = X[0]
+    H = range_azimuth_elevation_jacobian(x, with_doppler=True)
+
+    def h(s):
+        return np.r_[range_azimuth_elevation(s), radial_velocity(s)]
+    num = np.empty((4, 6))
+    for j in range(6):
+        e = np.zeros(6)
+        step = 1e-3 if j < 3 else 1e-4
+        e[j] = step
+        num[:, j] = (h(x + e) - h(x - e)) / (2 * step)
+    np.testing.assert_allclose(H, num, rtol=1e-6, atol=1e-12)
+    np.testing.assert_allclose(range_azimuth_elevation_jacobian(x), H[:3])
+    with pytest.raises(ValueError, match="range 0"):
+        range_azimuth_elevation(np.zeros(6))
+    with pytest.raises(ValueError, match="x must"):
+        range_azimuth_elevation_jacobian(np.zeros(5))
+
+
+# ----------------------------------------------------------------------------- trackers
+def clean_scans(truth, rng, sigma=25.0):
+    """Target-only scans (one detection per scan) with Cartesian noise, SNR 20."""
+    K = truth.shape[0]
+    p = truth[:, :3] + rng.normal(0, sigma, (K, 3))
+    return scans_from_list([(p[k], [radial_velocity(truth[k])], [20.0]) for k in range(K)])
+
+
+@pytest.mark.parametrize("method", ["A", "B", "C", "P"])
+def test_trackers_follow_a_clean_target(method):
+    truth = straight_track(40)
+    rng = np.random.default_rng(6)
+    scans = clean_scans(truth, rng)
+    cfg = TbdTrackerConfig(method=method, n_particles=400, processing_radius=2000.0,
+                           clutter_density=1e-3)
+    res = run_tbd_tracker(scans, truth[0] + [200, -100, 50, 10, -5, 0], P0, rng, cfg)
+    e = tbd_position_errors(res.estimates, truth)
+    assert np.mean(e[10:]) < 120.0
+    assert not tbd_track_lost(e)
+    assert np.all(res.n_processed == 1)
+    assert res.processed.all()
+    if method == "A":
+        assert res.accepted[1:].all() and np.all(np.isnan(res.ess))
+    else:
+        assert np.all((res.ess >= 1.0) & (res.ess <= 400.0 + 1e-9))
+
+
+def test_empty_scans_are_prediction_only():
+    truth = straight_track(15)
+    empty = scans_from_list([(np.zeros((0, 3)), [], [])] * 15)
+    x0 = truth[0]
+    for method in "ABCP":
+        res = run_tbd_tracker(empty, x0, P0, np.random.default_rng(7),
+                              TbdTrackerConfig(method=method, n_particles=2000))
+        assert np.all(res.n_processed == 0) and res.processed.shape == (0,)
+        if method == "A":
+            np.testing.assert_allclose(res.estimates, truth, rtol=1e-12)
+        else:
+            # uniform weights all along (no update, no resampling): N_eff = N
+            np.testing.assert_allclose(res.ess, 2000.0)
+            assert not res.resampled.any()
+            # mean of the propagated cloud follows the CV prediction (Monte Carlo error)
+            e = tbd_position_errors(res.estimates, truth)
+            assert np.max(e) < 150.0
+
+
+def test_sis_weights_are_kept_without_resampling():
+    # two scans, no resampling: the final weights are the product of both scans' terms
+    truth = straight_track(2, x0=(30e3, 10e3, 5e3, 0.0, 0.0, 0.0))
+    rng = np.random.default_rng(8)
+    scans = clean_scans(truth, rng)
+    cfg = TbdTrackerConfig(method="C", n_particles=300, sigma_a=0.0, resample_threshold=0.0)
+    P_small = np.diag([100.0 ** 2] * 3 + [1e-6] * 3)
+    res = run_tbd_tracker(scans, truth[0], P_small, np.random.default_rng(9), cfg)
+    # reproduce: draw the same particles, weight with both scans (sigma_a = 0: static)
+    g = np.random.default_rng(9)
+    X = truth[0] + g.standard_normal((300, 6)) @ np.linalg.cholesky(P_small).T
+    lw = np.zeros(300)
+    for k in range(2):
+        if k:
+            X = X @ cv_transition(1.0, dim=3).T  # sigma_a = 0: deterministic prediction
+        pos, rr, snr = (scans.positions[k:k + 1], scans.range_rate[k:k + 1], scans.snr[k:k + 1])
+        lw += direct_particle_log_weights(X, pos, rr, snr, 150.0, 40.0, 1e-6)
+    w = np.exp(lw - lw.max())
+    w /= w.sum()
+    np.testing.assert_allclose(res.estimates[1], w @ X, rtol=1e-10)
+    assert res.ess[1] == pytest.approx(1.0 / np.sum(w ** 2), rel=1e-10)
+    # erratum 3: the weighted estimate differs from the plain particle mean
+    assert np.linalg.norm(res.estimates[1, :3] - X[:, :3].mean(axis=0)) > 1.0
+
+
+def test_gate_rejects_far_pseudo_measurement():
+    truth = straight_track(3)
+    far = truth[:, :3] + [2000.0, 0.0, 0.0]
+    scans = scans_from_list([(far[k], [radial_velocity(truth[k])], [50.0]) for k in range(3)])
+    gated = run_tbd_tracker(scans, truth[0], np.diag([30.0 ** 2] * 3 + [5.0 ** 2] * 3),
+                            np.random.default_rng(0), TbdTrackerConfig(method="A"))
+    assert not gated.accepted.any()
+    np.testing.assert_allclose(gated.estimates, truth, rtol=1e-12)
+    literal = run_tbd_tracker(scans, truth[0], np.diag([30.0 ** 2] * 3 + [5.0 ** 2] * 3),
+                              np.random.default_rng(0), TbdTrackerConfig(method="A", gate=math.inf))
+    assert literal.accepted.all()
+
+
+def test_scenario_run_is_deterministic_and_c_beats_a():
+    truth = tbd_radar_truth()
+    sc = simulate_tbd_radar(truth, TbdRadarParameters(), np.random.default_rng(12))
+    cfg = TbdTrackerConfig(method="C", n_particles=300)
+    r1 = run_tbd_tracker(sc, truth.states[0], P0, np.random.default_rng(1), cfg)
+    r2 = run_tbd_tracker(sc, truth.states[0], P0, np.random.default_rng(1), cfg)
+    np.testing.assert_array_equal(r1.estimates, r2.estimates)
+    e = tbd_position_errors(r1.estimates, truth.states)
+    assert not tbd_track_lost(e)
+    assert np.mean(e) < 300.0
+    # only detections within R of the prediction are processed
+    assert np.all(r1.n_processed == np.bincount(sc.scan_index[r1.processed], minlength=250))
+    assert r1.n_processed.mean() < 15.0
+    m_err = tbd_measurement_errors(sc.positions, sc.offsets, truth.states, r1.processed)
+    assert np.nanmean(m_err) > np.mean(e)  # the filter beats the raw detections
+
+
+def test_metrics():
+    e = np.r_[np.zeros(5), np.full(9, 2000.0), np.zeros(3), np.full(10, 1500.0)]
+    assert tbd_track_lost(e)
+    assert not tbd_track_lost(e[:17])
+    assert not tbd_track_lost(np.zeros(20))
+    est = np.zeros((3, 6))
+    tru = np.zeros((3, 6))
+    tru[:, 0] = [3.0, 4.0, 0.0]
+    np.testing.assert_allclose(tbd_position_errors(est, tru), [3.0, 4.0, 0.0])
+    pos = np.array([[1.0, 0, 0], [3.0, 0, 0], [0.0, 0, 0]])
+    out = tbd_measurement_errors(pos, np.array([0, 2, 2, 3]), np.zeros((3, 6)))
+    np.testing.assert_allclose(out, [2.0, np.nan, 0.0])
+    with pytest.raises(ValueError, match="truth"):
+        tbd_measurement_errors(pos, np.array([0, 2, 3]), np.zeros((3, 6)))
+
+
+# ----------------------------------------------------------------------------- bad input
+def test_config_bad_input():
+    with pytest.raises(ValueError, match="method"):
+        TbdTrackerConfig(method="D")
+    with pytest.raises(ValueError, match="n_particles"):
+        TbdTrackerConfig(n_particles=0)
+    for bad in (0.0, 1.0, 1.5):
+        with pytest.raises(ValueError, match="pfa"):
+            TbdTrackerConfig(pfa=bad)
+    with pytest.raises(ValueError, match="sigma_r"):
+        TbdTrackerConfig(sigma_r=-1.0)
+    with pytest.raises(ValueError, match="gate"):
+        TbdTrackerConfig(gate=0.0)
+    with pytest.raises(ValueError, match="processing_radius"):
+        TbdTrackerConfig(processing_radius=float("nan"))
+
+
+def test_run_bad_input():
+    truth = straight_track(3)
+    good = clean_scans(truth, np.random.default_rng(0))
+    rng = np.random.default_rng(0)
+    with pytest.raises(TypeError, match="scans"):
+        run_tbd_tracker(object(), truth[0], P0, rng)
+    with pytest.raises(TypeError, match="rng"):
+        run_tbd_tracker(good, truth[0], P0, 42)
+    with pytest.raises(TypeError, match="config"):
+        run_tbd_tracker(good, truth[0], P0, rng, {"method": "C"})
+    with pytest.raises(ValueError, match="x0"):
+        run_tbd_tracker(good, truth[0, :4], P0, rng)
+    with pytest.raises(ValueError, match="P0"):
+        run_tbd_tracker(good, truth[0], -P0, rng)
+    bad = SimpleNamespace(**vars(good))
+    bad.snr = good.snr.copy()
+    bad.snr[0] = -1.0
+    with pytest.raises(ValueError, match="snr"):
+        run_tbd_tracker(bad, truth[0], P0, rng)
+    bad = SimpleNamespace(**vars(good))
+    bad.snr = good.snr.copy()
+    bad.snr[1] = np.nan
+    with pytest.raises(ValueError, match="snr"):
+        run_tbd_tracker(bad, truth[0], P0, rng)
+    bad = SimpleNamespace(**vars(good))
+    bad.offsets = np.array([0, 2, 1, 3])
+    with pytest.raises(ValueError, match="offsets"):
+        run_tbd_tracker(bad, truth[0], P0, rng)
+    bad = SimpleNamespace(**vars(good))
+    bad.positions = good.positions[:, :2]
+    with pytest.raises(ValueError, match="positions"):
+        run_tbd_tracker(bad, truth[0], P0, rng)
+    with pytest.raises(ValueError, match="pfa"):
+        direct_particle_log_weights(np.zeros((2, 6)), [[1.0, 2.0, 3.0]], [0.0], [3.0], 1.0, 1.0, 0.0)
+    with pytest.raises(ValueError, match="snr"):
+        direct_particle_log_weights(np.zeros((2, 6)), [[1.0, 2.0, 3.0]], [0.0], [-3.0], 1.0, 1.0, 1e-6)
+    with pytest.raises(ValueError, match="errors"):
+        tbd_track_lost(np.array([np.nan, 1.0]))

@@ -1,0 +1,700 @@
+"""Radar track-before-detect with SNR/Marcum-Q weights (Kwon, Kang & Kwak 2016).
+
+Three trackers over thresholded radar detections that carry a 3-D position, a radial
+velocity (Doppler) and a measured SNR ``ζ`` (linear).  Each detection's score is
+``P_D(ζ) = Q1(sqrt(2 ζ), sqrt(-2 ln P_fa))`` (eq 9), computed once per detection with
+:func:`trackcore.detection.log_marcum_detection_probability`.
+
+* ``"A"`` -- the detections inside the processing sphere are collapsed into one
+  weighted-mean position ``p̄`` (eqs 10-11, normalised weights, erratum 4), converted to
+  (range, azimuth, elevation) and fed to an EKF with a chi-square validation gate
+  (``gate = inf`` gives the paper's literal, ungated EKF).
+* ``"B"`` -- the same ``p̄`` feeds a particle filter:
+  ``w^i ∝ w^i_{k-1} exp(-||p^i - p̄|| / σ_r)``.
+* ``"C"`` -- the proposed method, eqs 12-15 with the errata: every particle is weighted by
+  the sum over all detections in the window,
+  ``log w̄^i = logsumexp_j(log P_D,j - ||p^i - p_j||/σ_r - |ṙ(s^i) - ṙ_j|/σ_v)``, times
+  its previous weight (SIS, erratum 6); a scan without detections leaves the weights
+  unchanged.
+
+All particle trackers propagate with the DWNA CV model (erratum 2), estimate with the
+weighted mean (erratum 3), and resample systematically when ``N_eff = 1/Σw²`` (erratum 7)
+falls below ``resample_threshold · N``.  The processing window is the sphere of radius
+``processing_radius`` around the predicted position.  A whole run is one numba kernel;
+the per-scan cost is ``O(N m)`` for method C (``m`` detections in the window) plus
+``O(M)`` to select the window among all ``M`` detections of the scan.
+
+The ``"P"`` method is the book's extension (not in the paper): a PDA-style particle
+likelihood ``1 - P_D P_G + (P_D/λ) Σ_j ℓ_a(ζ_j) N(z_j; h(s^i), R)`` with the Rician
+amplitude likelihood ratio ``ℓ_a``; see :func:`run_tbd_tracker`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+
+from ..core.logmath import logsumexp_kernel
+from ..core.validation import (as_array, as_count, as_covariance, as_int, as_nonnegative,
+                               as_positive, as_probability, as_rng, as_vector)
+from ..detection.marcum import (log_marcum_detection_probability,
+                                log_marcum_detection_probability_scalar_kernel)
+from ..filters.kalman import kf_predict_kernel, kf_update_kernel
+from ..filters.particle import (noise_factor, propagate_linear_kernel,
+                                systematic_resample_kernel)
+from ..models.measurement import wrap_angle_kernel
+from ..models.motion import cv_process_noise, cv_transition
+
+__all__ = [
+    "TBD_METHODS",
+    "TbdTrackerConfig",
+    "TbdTrackResult",
+    "run_tbd_tracker",
+    "range_azimuth_elevation",
+    "range_azimuth_elevation_jacobian",
+    "spherical_to_cartesian",
+    "radial_velocity",
+    "weighted_mean_detection",
+    "direct_particle_log_weights",
+    "tbd_position_errors",
+    "tbd_measurement_errors",
+    "tbd_track_lost",
+]
+
+#: method codes accepted by :class:`TbdTrackerConfig`
+TBD_METHODS = ("A", "B", "C", "P")
+_CODE = {"A": 0, "B": 1, "C": 2, "P": 3}
+_LOG_2PI = math.log(2.0 * math.pi)
+
+
+# =============================================================================== geometry
+@nb.njit(cache=True, inline="always")
+def _rae(x0, x1, x2):
+    r = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+    az = math.atan2(x1, x0)
+    el = math.asin(x2 / r) if r > 0.0 else 0.0
+    return r, az, el
+
+
+@nb.njit(cache=True, inline="always")
+def _radial_velocity(s0, s1, s2, s3, s4, s5):
+    r = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+    if r == 0.0:
+        return 0.0
+    return (s0 * s3 + s1 * s4 + s2 * s5) / r
+
+
+@nb.njit(cache=True)
+def _rae_jacobian_kernel(x, H, with_doppler):
+    """Jacobian of (r, az, el[, ṙ]) w.r.t. [x, y, z, vx, vy, vz] into ``H`` (3 or 4, 6)."""
+    px, py, pz = x[0], x[1], x[2]
+    rho2 = px * px + py * py
+    rho = math.sqrt(rho2)
+    r2 = rho2 + pz * pz
+    r = math.sqrt(r2)
+    for i in range(H.shape[0]):
+        for j in range(6):
+            H[i, j] = 0.0
+    H[0, 0] = px / r
+    H[0, 1] = py / r
+    H[0, 2] = pz / r
+    H[1, 0] = -py / rho2
+    H[1, 1] = px / rho2
+    H[2, 0] = -px * pz / (r2 * rho)
+    H[2, 1] = -py * pz / (r2 * rho)
+    H[2, 2] = rho / r2
+    if with_doppler:
+        vx, vy, vz = x[3], x[4], x[5]
+        rdot = (px * vx + py * vy + pz * vz) / r
+        H[3, 0] = (vx - rdot * px / r) / r
+        H[3, 1] = (vy - rdot * py / r) / r
+        H[3, 2] = (vz - rdot * pz / r) / r
+        H[3, 3] = px / r
+        H[3, 4] = py / r
+        H[3, 5] = pz / r
+
+
+def _states(x, name, n):
+    arr = as_array(x, name, ndim=(1, 2))
+    single = arr.ndim == 1
+    arr2 = arr.reshape(1, -1) if single else arr
+    if arr2.shape[1] < n:
+        raise ValueError(f"{name} must have at least {n} components per state, got {arr2.shape[1]}")
+    return arr2, single
+
+
+def range_azimuth_elevation(x):
+    """``(r, azimuth, elevation)`` of positions ``x[..., :3]`` seen from the origin.
+
+    Azimuth ``atan2(y, x)`` (counter-clockwise from +x), elevation ``asin(z / r)``.
+    ``x`` is ``(n,)`` or ``(N, n)`` with ``n >= 3``; returns ``(3,)`` or ``(N, 3)``.
+    """
+    X, single = _states(x, "x", 3)
+    r = np.linalg.norm(X[:, :3], axis=1)
+    if np.any(r == 0):
+        raise ValueError("x must not be at the radar (range 0)")
+    out = np.column_stack([r, np.arctan2(X[:, 1], X[:, 0]), np.arcsin(X[:, 2] / r)])
+    return out[0] if single else out
+
+
+def range_azimuth_elevation_jacobian(x, with_doppler=False):
+    """Jacobian ``(3, 6)`` (``(4, 6)`` with the range rate) at one state ``x`` (6,)."""
+    x = as_vector(x, "x", 6)
+    if np.hypot(x[0], x[1]) == 0:
+        raise ValueError("x must not lie on the z axis (azimuth undefined)")
+    H = np.empty((4 if with_doppler else 3, 6))
+    _rae_jacobian_kernel(x, H, bool(with_doppler))
+    return H
+
+
+def spherical_to_cartesian(z):
+    """Positions ``(N, 3)`` (or ``(3,)``) from ``(r, azimuth, elevation)`` rows."""
+    Z, single = _states(z, "z", 3)
+    r, az, el = Z[:, 0], Z[:, 1], Z[:, 2]
+    ce = np.cos(el)
+    out = np.column_stack([r * ce * np.cos(az), r * ce * np.sin(az), r * np.sin(el)])
+    return out[0] if single else out
+
+
+def radial_velocity(x):
+    """Radial velocity ``p·v / ||p||`` of states ``[x, y, z, vx, vy, vz]`` (radar at the origin)."""
+    X, single = _states(x, "x", 6)
+    r = np.linalg.norm(X[:, :3], axis=1)
+    out = np.where(r > 0, np.einsum("ij,ij->i", X[:, :3], X[:, 3:6]) / np.where(r > 0, r, 1.0), 0.0)
+    return float(out[0]) if single else out
+
+
+# =============================================================================== weights
+@nb.njit(cache=True)
+def _weighted_mean_kernel(idx, m, pos, rr, lpd, p_ref, rr_ref, sig_r, sig_v, lw, out_p):
+    """Eqs (10)-(11) with normalised weights: p̄ into ``out_p``; returns the weighted ṙ̄.
+
+    ``lpd[t]`` is ``log P_D`` of detection ``idx[t]``; ``lw`` is an (>= m,) work array.
+    Returns NaN if every weight underflows.
+    """
+    mx = -np.inf
+    for t in range(m):
+        j = idx[t]
+        d = math.sqrt((pos[j, 0] - p_ref[0]) ** 2 + (pos[j, 1] - p_ref[1]) ** 2
+                      + (pos[j, 2] - p_ref[2]) ** 2)
+        v = abs(rr[j] - rr_ref)
+        lw[t] = lpd[t] - d / sig_r - v / sig_v
+        if lw[t] > mx:
+            mx = lw[t]
+    if mx == -np.inf:
+        return np.nan
+    tot = 0.0
+    out_p[0] = 0.0
+    out_p[1] = 0.0
+    out_p[2] = 0.0
+    rbar = 0.0
+    for t in range(m):
+        j = idx[t]
+        w = math.exp(lw[t] - mx)
+        tot += w
+        out_p[0] += w * pos[j, 0]
+        out_p[1] += w * pos[j, 1]
+        out_p[2] += w * pos[j, 2]
+        rbar += w * rr[j]
+    out_p[0] /= tot
+    out_p[1] /= tot
+    out_p[2] /= tot
+    return rbar / tot
+
+
+@nb.njit(cache=True)
+def _direct_loglik_kernel(particles, idx, m, pos, rr, lpd, sig_r, sig_v, tmp, out):
+    """Eqs (13)-(14) in log space: ``out[i] = logsumexp_j(log P_D,j - d_ij/σ_r - δ_ij/σ_v)``."""
+    N = particles.shape[0]
+    inv_r = 1.0 / sig_r
+    inv_v = 1.0 / sig_v
+    for i in range(N):
+        x0 = particles[i, 0]
+        x1 = particles[i, 1]
+        x2 = particles[i, 2]
+        rdot = _radial_velocity(x0, x1, x2, particles[i, 3], particles[i, 4], particles[i, 5])
+        mx = -np.inf
+        for t in range(m):
+            j = idx[t]
+            d = math.sqrt((x0 - pos[j, 0]) ** 2 + (x1 - pos[j, 1]) ** 2 + (x2 - pos[j, 2]) ** 2)
+            v = lpd[t] - d * inv_r - abs(rdot - rr[j]) * inv_v
+            tmp[t] = v
+            if v > mx:
+                mx = v
+        if mx == -np.inf:
+            out[i] = -np.inf
+            continue
+        s = 0.0
+        for t in range(m):
+            s += math.exp(tmp[t] - mx)
+        out[i] = mx + math.log(s)
+
+
+@nb.njit(cache=True)
+def _pda_loglik_kernel(particles, idx, m, pos, rr, logla, pd, clutter_density,
+                       sig_range, sig_angle, sig_rr, tmp, out):
+    """Extension "P": ``log(1 - P_D + (P_D/λ) Σ_j ℓ_a,j N(z_j; h(s^i), R))``.
+
+    The measurement model is (r, az, el, ṙ) with independent Gaussian errors; the
+    Cartesian detection is converted back to spherical coordinates (exactly, since
+    the simulator drew its noise there).  ``logla`` is the log amplitude likelihood ratio
+    and ``clutter_density`` the false-alarm density in (r, az, el, ṙ) space.
+    """
+    N = particles.shape[0]
+    c = -2.0 * _LOG_2PI - math.log(sig_range) - 2.0 * math.log(sig_angle) - math.log(sig_rr)
+    log_pd_lam = math.log(pd) - math.log(clutter_density)
+    log_miss = math.log1p(-pd)
+    for i in range(N):
+        r_i, az_i, el_i = _rae(particles[i, 0], particles[i, 1], particles[i, 2])
+        rdot = _radial_velocity(particles[i, 0], particles[i, 1], particles[i, 2],
+                                particles[i, 3], particles[i, 4], particles[i, 5])
+        mx = log_miss
+        for t in range(m):
+            j = idx[t]
+            r_j, az_j, el_j = _rae(pos[j, 0], pos[j, 1], pos[j, 2])
+            e0 = (r_j - r_i) / sig_range
+            e1 = wrap_angle_kernel(az_j - az_i) / sig_angle
+            e2 = (el_j - el_i) / sig_angle
+            e3 = (rr[j] - rdot) / sig_rr
+            v = log_pd_lam + logla[j] + c - 0.5 * (e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
+            tmp[t] = v
+            if v > mx:
+                mx = v
+        s = math.exp(log_miss - mx)
+        for t in range(m):
+            s += math.exp(tmp[t] - mx)
+        out[i] = mx + math.log(s)
+
+
+# =============================================================================== run kernels
+@nb.njit(cache=True)
+def _window(pos, snr, log_pfa, lo, hi, p, R, idx, lpd, processed):
+    """Detections of rows ``lo:hi`` within ``R`` of ``p``: indices into ``idx`` and their
+    ``log P_D`` (eq 9, evaluated only for the detections that are processed) into ``lpd``."""
+    m = 0
+    R2 = R * R
+    for j in range(lo, hi):
+        d2 = (pos[j, 0] - p[0]) ** 2 + (pos[j, 1] - p[1]) ** 2 + (pos[j, 2] - p[2]) ** 2
+        if d2 <= R2:
+            idx[m] = j
+            lpd[m] = log_marcum_detection_probability_scalar_kernel(snr[j], log_pfa)
+            processed[j] = True
+            m += 1
+    return m
+
+
+@nb.njit(cache=True)
+def _weighted_state(particles, logw, w, mean):
+    """Normalised weights into ``w`` (from ``logw``) and the weighted mean state."""
+    N, n = particles.shape
+    mx = -np.inf
+    for i in range(N):
+        if logw[i] > mx:
+            mx = logw[i]
+    tot = 0.0
+    for i in range(N):
+        w[i] = math.exp(logw[i] - mx)
+        tot += w[i]
+    for a in range(n):
+        mean[a] = 0.0
+    s2 = 0.0
+    for i in range(N):
+        w[i] /= tot
+        s2 += w[i] * w[i]
+        for a in range(n):
+            mean[a] += w[i] * particles[i, a]
+    return 1.0 / s2
+
+
+@nb.njit(cache=True)
+def _pf_run_kernel(method, particles, logw, F, L, pos, rr, snr, log_pfa, logla, offsets, R,
+                   sig_r, sig_v, use_doppler, resample_below, pd, clutter_density,
+                   sig_range, sig_angle, sig_rr, rng, est, nproc, processed, ess, resampled):
+    N = particles.shape[0]
+    K = offsets.shape[0] - 1
+    max_m = 0
+    for k in range(K):
+        if offsets[k + 1] - offsets[k] > max_m:
+            max_m = offsets[k + 1] - offsets[k]
+    idx = np.empty(max(max_m, 1), dtype=np.int64)
+    tmp = np.empty(max(max_m, 1))
+    lpd = np.empty(max(max_m, 1))
+    ll = np.empty(N)
+    w = np.empty(N)
+    mean = np.empty(6)
+    pbar = np.empty(3)
+    ridx = np.empty(N, dtype=np.int64)
+    work = np.empty_like(particles)
+    for k in range(K):
+        if k > 0:
+            propagate_linear_kernel(particles, F, L, rng, particles)
+        _weighted_state(particles, logw, w, mean)
+        rr_pred = _radial_velocity(mean[0], mean[1], mean[2], mean[3], mean[4], mean[5])
+        m = _window(pos, snr, log_pfa, offsets[k], offsets[k + 1], mean, R, idx, lpd, processed)
+        nproc[k] = m
+        updated = False
+        if m > 0:
+            if method == 2:
+                _direct_loglik_kernel(particles, idx, m, pos, rr, lpd, sig_r, sig_v, tmp, ll)
+                updated = True
+            elif method == 3:
+                _pda_loglik_kernel(particles, idx, m, pos, rr, logla, pd, clutter_density,
+                                   sig_range, sig_angle, sig_rr, tmp, ll)
+                updated = True
+            else:
+                rbar = _weighted_mean_kernel(idx, m, pos, rr, lpd, mean, rr_pred, sig_r, sig_v,
+                                             tmp, pbar)
+                if not math.isnan(rbar):
+                    for i in range(N):
+                        d = math.sqrt((particles[i, 0] - pbar[0]) ** 2
+                                      + (particles[i, 1] - pbar[1]) ** 2
+                                      + (particles[i, 2] - pbar[2]) ** 2)
+                        v = -d / sig_r
+                        if use_doppler:
+                            rd = _radial_velocity(particles[i, 0], particles[i, 1], particles[i, 2],
+                                                  particles[i, 3], particles[i, 4], particles[i, 5])
+                            v -= abs(rd - rbar) / sig_v
+                        ll[i] = v
+                    updated = True
+        if updated:
+            # SIS: multiply by the previous weights; all-zero (underflow) -> keep the old ones
+            mx = -np.inf
+            for i in range(N):
+                v = logw[i] + ll[i]
+                if v > mx:
+                    mx = v
+            if mx > -np.inf:
+                for i in range(N):
+                    logw[i] = logw[i] + ll[i] - mx
+        n_eff = _weighted_state(particles, logw, w, mean)
+        for a in range(6):
+            est[k, a] = mean[a]
+        ess[k] = n_eff
+        if n_eff < resample_below:
+            systematic_resample_kernel(w, rng, ridx)
+            for i in range(N):
+                src = ridx[i]
+                for a in range(6):
+                    work[i, a] = particles[src, a]
+            for i in range(N):
+                for a in range(6):
+                    particles[i, a] = work[i, a]
+                logw[i] = 0.0
+            resampled[k] = True
+
+
+@nb.njit(cache=True)
+def _ekf_run_kernel(x, P, F, Q, Rm, pos, rr, snr, log_pfa, offsets, R, sig_r, sig_v, gate,
+                    use_doppler, est, nproc, processed, accepted):
+    K = offsets.shape[0] - 1
+    nz = 4 if use_doppler else 3
+    max_m = 0
+    for k in range(K):
+        if offsets[k + 1] - offsets[k] > max_m:
+            max_m = offsets[k + 1] - offsets[k]
+    idx = np.empty(max(max_m, 1), dtype=np.int64)
+    tmp = np.empty(max(max_m, 1))
+    lpd = np.empty(max(max_m, 1))
+    pbar = np.empty(3)
+    xp = np.empty(6)
+    Pp = np.empty((6, 6))
+    xu = np.empty(6)
+    Pu = np.empty((6, 6))
+    H = np.empty((nz, 6))
+    z = np.empty(nz)
+    innov = np.empty(nz)
+    S = np.empty((nz, nz))
+    Kg = np.empty((6, nz))
+    for k in range(K):
+        if k > 0:
+            kf_predict_kernel(x, P, F, Q, xp, Pp)
+            x[:] = xp
+            P[:, :] = Pp
+        rr_pred = _radial_velocity(x[0], x[1], x[2], x[3], x[4], x[5])
+        m = _window(pos, snr, log_pfa, offsets[k], offsets[k + 1], x, R, idx, lpd, processed)
+        nproc[k] = m
+        if m > 0:
+            rbar = _weighted_mean_kernel(idx, m, pos, rr, lpd, x, rr_pred, sig_r, sig_v, tmp, pbar)
+            if not math.isnan(rbar):
+                r_m, az_m, el_m = _rae(pbar[0], pbar[1], pbar[2])
+                r_p, az_p, el_p = _rae(x[0], x[1], x[2])
+                _rae_jacobian_kernel(x, H, use_doppler)
+                # z' = (z - h(x), azimuth wrapped) + H x, so that z' - H x is the EKF innovation
+                innov[0] = r_m - r_p
+                innov[1] = wrap_angle_kernel(az_m - az_p)
+                innov[2] = el_m - el_p
+                if use_doppler:
+                    innov[3] = rbar - rr_pred
+                for i in range(nz):
+                    s = innov[i]
+                    for a in range(6):
+                        s += H[i, a] * x[a]
+                    z[i] = s
+                nis, _, ok = kf_update_kernel(x, P, z, H, Rm, xu, Pu, innov, S, Kg)
+                if ok and nis <= gate:
+                    x[:] = xu
+                    P[:, :] = Pu
+                    accepted[k] = True
+        for a in range(6):
+            est[k, a] = x[a]
+
+
+# =============================================================================== public API
+@dataclass(frozen=True)
+class TbdTrackerConfig:
+    """Parameters of one TBD tracker (defaults: spec 003 section 4, the book's choices).
+
+    ``method``: ``"A"`` (weighted mean + EKF), ``"B"`` (weighted mean + PF), ``"C"``
+    (direct particle weights, the paper's proposal) or ``"P"`` (extension: PDA particle
+    likelihood with the amplitude likelihood ratio).  ``gate``: NIS threshold of the EKF
+    (99 % of chi-square with 3 dof; ``math.inf`` = the paper's ungated EKF).
+    ``use_doppler``: give (A)/(B) the weighted-mean Doppler too (ablation).
+    ``pfa``: the ``P_fa`` inside eq (9).  ``resample_threshold``: resample when
+    ``N_eff < resample_threshold * N``.  ``sigma_range``, ``sigma_angle``,
+    ``sigma_range_rate``: the EKF's measurement noise (and method P's likelihood).
+    ``target_snr``, ``clutter_density``, ``detection_probability``: method P only
+    (expected target SNR for the amplitude likelihood ratio, false-alarm density per unit
+    of (m · rad · rad · m/s) in the window, and the P_D in the PDA likelihood).
+    """
+    method: str = "C"
+    n_particles: int = 600
+    processing_radius: float = 2500.0
+    sigma_r: float = 150.0
+    sigma_v: float = 40.0
+    sigma_a: float = 15.0
+    pfa: float = 1e-6
+    resample_threshold: float = 0.5
+    gate: float = 11.345
+    use_doppler: bool = False
+    scan_period: float = 1.0
+    sigma_range: float = 25.0
+    sigma_angle: float = math.radians(0.15)
+    sigma_range_rate: float = 2.0
+    target_snr: float = 4.0
+    clutter_density: float = 1e-6
+    detection_probability: float = 0.7
+
+    def __post_init__(self):
+        if self.method not in TBD_METHODS:
+            raise ValueError(f"method must be one of {TBD_METHODS}, got {self.method!r}")
+        as_int(self.n_particles, "n_particles", minimum=1)
+        for name in ("processing_radius", "sigma_r", "sigma_v", "scan_period", "sigma_range",
+                     "sigma_angle", "sigma_range_rate", "clutter_density"):
+            as_positive(getattr(self, name), name)
+        as_nonnegative(self.sigma_a, "sigma_a")
+        as_nonnegative(self.target_snr, "target_snr")
+        as_probability(self.pfa, "pfa", open_low=True, open_high=True)
+        as_probability(self.resample_threshold, "resample_threshold")
+        as_probability(self.detection_probability, "detection_probability", open_high=True)
+        g = float(self.gate)
+        if not g > 0:
+            raise ValueError(f"gate must be > 0 (math.inf for no gate), got {self.gate}")
+
+
+@dataclass(frozen=True)
+class TbdTrackResult:
+    """Output of :func:`run_tbd_tracker` over ``K`` scans with ``M`` detections in total."""
+    estimates: np.ndarray   # (K, 6) posterior estimates [x, y, z, vx, vy, vz]
+    n_processed: np.ndarray  # (K,) detections inside the processing sphere
+    processed: np.ndarray   # (M,) bool: detection was inside the sphere of its scan
+    ess: np.ndarray         # (K,) N_eff after the update (NaN for the EKF)
+    resampled: np.ndarray   # (K,) bool: the PF resampled at this scan
+    accepted: np.ndarray    # (K,) bool: the EKF accepted the pseudo-measurement (A only)
+
+
+def _scan_arrays(scans):
+    try:
+        positions, range_rate, snr, offsets = (scans.positions, scans.range_rate, scans.snr,
+                                               scans.offsets)
+    except AttributeError:
+        raise TypeError("scans must have attributes positions, range_rate, snr and offsets "
+                        "(e.g. a trackcore.scenarios.TbdRadarScans)") from None
+    pos = as_array(positions, "scans.positions", ndim=2)
+    if pos.shape[1] != 3:
+        raise ValueError(f"scans.positions must have shape (M, 3), got {pos.shape}")
+    M = pos.shape[0]
+    rr = as_array(range_rate, "scans.range_rate", shape=(M,))
+    snr = as_array(snr, "scans.snr", shape=(M,))
+    if M and np.any(snr < 0):
+        raise ValueError("scans.snr must be a non-negative linear power ratio")
+    off = np.asarray(offsets)
+    if off.ndim != 1 or off.size < 2 or not np.issubdtype(off.dtype, np.integer):
+        raise ValueError("scans.offsets must be a 1-D integer array of length K + 1 >= 2")
+    off = np.ascontiguousarray(off, dtype=np.int64)
+    if off[0] != 0 or off[-1] != M or np.any(np.diff(off) < 0):
+        raise ValueError("scans.offsets must rise from 0 to the number of detections")
+    return pos, rr, snr, off
+
+
+def log_amplitude_likelihood_ratio(zeta, snr):
+    """Log of ``p_1(ζ | S) / p_0(ζ)`` for a non-fluctuating target of SNR ``S`` in CN(0, 1)
+    noise: ``ln I0(2 sqrt(S ζ)) - S`` (Rician power over exponential)."""
+    from scipy.special import i0e
+    x = 2.0 * np.sqrt(snr * zeta)
+    return np.log(i0e(x)) + x - snr
+
+
+def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig()):
+    """Run one TBD tracker over a whole scenario run.
+
+    ``scans``: an object with ``positions (M, 3)``, ``range_rate (M,)``, ``snr (M,)``
+    (measured, linear) and ``offsets (K+1,)`` (scan ``k`` owns detections
+    ``offsets[k]:offsets[k+1]``), e.g. :class:`trackcore.scenarios.TbdRadarScans`.
+    ``x0``, ``P0``: the initial estimate and covariance at scan 0 (the EKF starts there;
+    the particles are drawn from ``N(x0, P0)`` with ``rng``).  Scan 0 is processed without
+    a prediction; every later scan is predicted over ``config.scan_period``.
+    Returns :class:`TbdTrackResult`.
+    """
+    if not isinstance(config, TbdTrackerConfig):
+        raise TypeError(f"config must be a TbdTrackerConfig, got {type(config).__name__}")
+    rng = as_rng(rng)
+    pos, rr, snr, off = _scan_arrays(scans)
+    x0 = as_vector(x0, "x0", 6)
+    P0 = as_covariance(P0, "P0", 6, strict=True)
+    K = off.size - 1
+    M = pos.shape[0]
+    T = config.scan_period
+    F = cv_transition(T, dim=3)
+    Q = cv_process_noise(T, config.sigma_a ** 2, dim=3, kind="dwna")
+    log_pfa = math.log(config.pfa)
+    est = np.empty((K, 6))
+    nproc = np.zeros(K, dtype=np.int64)
+    processed = np.zeros(M, dtype=bool)
+    resampled = np.zeros(K, dtype=bool)
+    accepted = np.zeros(K, dtype=bool)
+    if config.method == "A":
+        Rm = np.diag([config.sigma_range ** 2, config.sigma_angle ** 2, config.sigma_angle ** 2]
+                     + ([config.sigma_range_rate ** 2] if config.use_doppler else []))
+        x = x0.copy()
+        P = P0.copy()
+        _ekf_run_kernel(x, P, F, Q, np.ascontiguousarray(Rm), pos, rr, snr, log_pfa, off,
+                        float(config.processing_radius), float(config.sigma_r),
+                        float(config.sigma_v), float(config.gate), bool(config.use_doppler),
+                        est, nproc, processed, accepted)
+        ess = np.full(K, np.nan)
+    else:
+        N = int(config.n_particles)
+        chol = np.linalg.cholesky(P0)
+        particles = np.ascontiguousarray(x0 + rng.standard_normal((N, 6)) @ chol.T)
+        logw = np.zeros(N)
+        L = noise_factor(Q)
+        logla = np.zeros(M)
+        if config.method == "P" and M:
+            logla = np.ascontiguousarray(log_amplitude_likelihood_ratio(snr, config.target_snr))
+        ess = np.empty(K)
+        _pf_run_kernel(_CODE[config.method], particles, logw, F, L, pos, rr, snr, log_pfa, logla, off,
+                       float(config.processing_radius), float(config.sigma_r),
+                       float(config.sigma_v), bool(config.use_doppler),
+                       float(config.resample_threshold * N), float(config.detection_probability),
+                       float(config.clutter_density), float(config.sigma_range),
+                       float(config.sigma_angle), float(config.sigma_range_rate), rng,
+                       est, nproc, processed, ess, resampled)
+    return TbdTrackResult(est, nproc, processed, ess, resampled, accepted)
+
+
+# =============================================================================== pieces, for tests and notebooks
+def weighted_mean_detection(positions, range_rate, snr, p_ref, rr_ref, sigma_r, sigma_v, pfa):
+    """Eqs (10)-(11) with normalised weights (erratum 4): ``(p̄ (3,), ṙ̄)``.
+
+    ``positions (m, 3)``, ``range_rate (m,)``, ``snr (m,)`` linear; ``p_ref`` (3,) and
+    ``rr_ref`` the predicted position and radial velocity.  ``m = 0`` (or all weights zero)
+    returns ``(None, None)``: there is no pseudo-measurement.
+    """
+    pos = as_array(positions, "positions", ndim=2)
+    if pos.shape[0] and pos.shape[1] != 3:
+        raise ValueError(f"positions must have shape (m, 3), got {pos.shape}")
+    m = pos.shape[0]
+    rr = as_array(range_rate, "range_rate", shape=(m,))
+    snr = as_array(snr, "snr", shape=(m,))
+    p_ref = as_vector(p_ref, "p_ref", 3)
+    sigma_r = as_positive(sigma_r, "sigma_r")
+    sigma_v = as_positive(sigma_v, "sigma_v")
+    if m == 0:
+        return None, None
+    logpd = np.ascontiguousarray(log_marcum_detection_probability(snr, pfa))
+    out = np.empty(3)
+    rbar = _weighted_mean_kernel(np.arange(m), m, np.ascontiguousarray(pos.reshape(m, 3)), rr,
+                                 logpd, p_ref, float(rr_ref), sigma_r, sigma_v, np.empty(m), out)
+    if math.isnan(rbar):
+        return None, None
+    return out, float(rbar)
+
+
+def direct_particle_log_weights(particles, positions, range_rate, snr, sigma_r, sigma_v, pfa):
+    """Eqs (12)-(14) in log space: ``log w̄_s^i`` (N,) for particles ``(N, 6)``.
+
+    ``m = 0`` returns zeros (no information: the weights stay as they were).
+    """
+    X = as_array(particles, "particles", ndim=2)
+    if X.shape[1] != 6:
+        raise ValueError(f"particles must have shape (N, 6), got {X.shape}")
+    pos = as_array(positions, "positions", ndim=2)
+    m = pos.shape[0]
+    if m and pos.shape[1] != 3:
+        raise ValueError(f"positions must have shape (m, 3), got {pos.shape}")
+    rr = as_array(range_rate, "range_rate", shape=(m,))
+    snr = as_array(snr, "snr", shape=(m,))
+    sigma_r = as_positive(sigma_r, "sigma_r")
+    sigma_v = as_positive(sigma_v, "sigma_v")
+    if m == 0:
+        return np.zeros(X.shape[0])
+    logpd = np.ascontiguousarray(log_marcum_detection_probability(snr, pfa))
+    out = np.empty(X.shape[0])
+    _direct_loglik_kernel(X, np.arange(m), m, np.ascontiguousarray(pos), rr, logpd, sigma_r,
+                          sigma_v, np.empty(m), out)
+    return out
+
+
+def tbd_position_errors(estimates, truth):
+    """Eq (20), corrected (erratum 9): ``E_err(k) = ||E_pos(k) - R_pos(k)||`` (K,)."""
+    E = as_array(estimates, "estimates", ndim=2)
+    Tr = as_array(truth, "truth", ndim=2)
+    if E.shape[0] != Tr.shape[0] or E.shape[1] < 3 or Tr.shape[1] < 3:
+        raise ValueError(f"estimates and truth must be (K, >=3) with the same K, got "
+                         f"{E.shape} and {Tr.shape}")
+    return np.linalg.norm(E[:, :3] - Tr[:, :3], axis=1)
+
+
+def tbd_measurement_errors(positions, offsets, truth, mask=None):
+    """Eq (19): mean distance of the (masked) detections of scan ``k`` from the truth.
+
+    NaN for a scan with no (masked) detection (the metric is undefined there).
+    """
+    pos = as_array(positions, "positions", ndim=2)
+    off = np.asarray(offsets, dtype=np.int64)
+    Tr = as_array(truth, "truth", ndim=2)
+    K = off.size - 1
+    if Tr.shape[0] != K:
+        raise ValueError(f"truth must have {K} rows (one per scan), got {Tr.shape[0]}")
+    scan = np.repeat(np.arange(K), np.diff(off))
+    keep = np.ones(pos.shape[0], dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
+    if keep.shape != (pos.shape[0],):
+        raise ValueError(f"mask must have shape ({pos.shape[0]},), got {keep.shape}")
+    d = np.linalg.norm(pos[:, :3] - Tr[scan, :3], axis=1)
+    total = np.bincount(scan[keep], weights=d[keep], minlength=K)
+    count = np.bincount(scan[keep], minlength=K)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, total / np.maximum(count, 1), np.nan)
+
+
+def tbd_track_lost(errors, threshold=1000.0, consecutive=10):
+    """True if ``errors`` exceed ``threshold`` for at least ``consecutive`` scans in a row
+    (spec 003 section 5.5: 1 km for 10 scans)."""
+    e = as_array(errors, "errors", ndim=1)
+    threshold = as_positive(threshold, "threshold")
+    consecutive = as_count(consecutive, "consecutive")
+    if consecutive == 0:
+        return True
+    run = 0
+    above = e > threshold
+    # longest run of True without a Python loop over scans
+    if not above.any():
+        return False
+    padded = np.concatenate([[False], above, [False]])
+    d = np.diff(padded.astype(np.int8))
+    starts = np.flatnonzero(d == 1)
+    ends = np.flatnonzero(d == -1)
+    run = int(np.max(ends - starts))
+    return run >= consecutive
