@@ -689,19 +689,29 @@ def _move_weigh_range(particles, lo, hi, F, L, noise, z, Rinv, c, model, sx, sy,
                 tmp[a] = s
             for a in range(n):
                 particles[i, a] = tmp[a]
+    top = -np.inf
     if d > 0:
         if model == 1:
             for i in range(lo, hi):
-                logw[i] += _ll_range_bearing_one(particles, i, z, Rinv, c, sx, sy)
+                v = logw[i] + _ll_range_bearing_one(particles, i, z, Rinv, c, sx, sy)
+                logw[i] = v
+                top = v if v > top else top
         else:
             for i in range(lo, hi):
-                logw[i] += _ll_position_one(particles, i, z, Rinv, c)
+                v = logw[i] + _ll_position_one(particles, i, z, Rinv, c)
+                logw[i] = v
+                top = v if v > top else top
+    else:
+        for i in range(lo, hi):
+            v = logw[i]
+            top = v if v > top else top
+    return top
 
 
 @nb.njit(cache=True)
 def _move_weigh_serial(particles, F, L, noise, z, Rinv, c, model, sx, sy, logw):
-    _move_weigh_range(particles, 0, particles.shape[0], F, L, noise, z, Rinv, c, model,
-                      sx, sy, logw)
+    return _move_weigh_range(particles, 0, particles.shape[0], F, L, noise, z, Rinv, c,
+                             model, sx, sy, logw)
 
 
 @nb.njit(cache=True, parallel=True)
@@ -709,10 +719,16 @@ def _move_weigh_parallel(particles, F, L, noise, z, Rinv, c, model, sx, sy, logw
     N = particles.shape[0]
     chunk = 4096
     nchunks = (N + chunk - 1) // chunk
+    tops = np.empty(nchunks)
     for q in nb.prange(nchunks):
         lo = q * chunk
         hi = min(N, lo + chunk)
-        _move_weigh_range(particles, lo, hi, F, L, noise, z, Rinv, c, model, sx, sy, logw)
+        tops[q] = _move_weigh_range(particles, lo, hi, F, L, noise, z, Rinv, c, model, sx, sy,
+                                    logw)
+    top = -np.inf
+    for q in range(nchunks):
+        top = tops[q] if tops[q] > top else top
+    return top
 
 
 @nb.njit(cache=True)
@@ -756,14 +772,10 @@ def bootstrap_step_kernel(particles, logw, F, L, z, Rinv, logdetR, model, sx, sy
     d = z.shape[0]
     c = -0.5 * (d * 1.8378770664093453 + logdetR)
     if N >= parallel_min:
-        _move_weigh_parallel(particles, F, L, scratch, z, Rinv, c, model, sx, sy, logw)
+        top = _move_weigh_parallel(particles, F, L, scratch, z, Rinv, c, model, sx, sy, logw)
     else:
-        _move_weigh_serial(particles, F, L, scratch, z, Rinv, c, model, sx, sy, logw)
+        top = _move_weigh_serial(particles, F, L, scratch, z, Rinv, c, model, sx, sy, logw)
     # 4. normalise: one exp per particle; logw temporarily holds w_i / w_max
-    top = -np.inf
-    for i in range(N):
-        if logw[i] > top:
-            top = logw[i]
     dead = top == -np.inf
     if dead:
         # every particle has zero likelihood: evidence 0, fall back to uniform weights
