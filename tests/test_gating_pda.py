@@ -334,3 +334,62 @@ def test_pda_update_kernel_callable_from_numba():
     np.testing.assert_allclose(xo, r.x, rtol=1e-14, atol=1e-14)
     np.testing.assert_allclose(Po, r.P, rtol=1e-14, atol=1e-14)
     assert acc == pytest.approx(10 * r.P[0, 0])
+
+
+def test_pda_matches_stonesoup():
+    """Betas and the reduced posterior agree with Stone Soup's PDAHypothesiser + PDA
+    association + Gaussian-mixture reduction (same model, clutter density, P_D, P_G)."""
+    import datetime
+    from stonesoup.dataassociator.probability import PDA
+    from stonesoup.functions import gm_reduce_single
+    from stonesoup.hypothesiser.probability import PDAHypothesiser
+    from stonesoup.models.measurement.linear import LinearGaussian
+    from stonesoup.models.transition.linear import (CombinedLinearGaussianTransitionModel,
+                                                    ConstantVelocity)
+    from stonesoup.predictor.kalman import KalmanPredictor
+    from stonesoup.types.array import StateVectors
+    from stonesoup.types.detection import Detection
+    from stonesoup.types.state import GaussianState
+    from stonesoup.types.track import Track
+    from stonesoup.updater.kalman import KalmanUpdater
+
+    t0 = datetime.datetime(2026, 1, 1)
+    t1 = t0 + datetime.timedelta(seconds=1)
+    tm = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.5), ConstantVelocity(0.5)])
+    R = np.diag([4.0, 2.0])
+    mm = LinearGaussian(4, (0, 2), R)
+    predictor, updater = KalmanPredictor(tm), KalmanUpdater(mm)
+    track = Track([GaussianState(np.array([[0.0], [1.0], [0.0], [-1.0]]),
+                                 np.diag([10.0, 1.0, 10.0, 1.0]), timestamp=t0)])
+    zs = np.array([[1.5, -0.5], [3.0, -2.0], [-1.0, 0.5]])
+    dets = {Detection(z.reshape(-1, 1), timestamp=t1, measurement_model=mm) for z in zs}
+    hyp = PDAHypothesiser(predictor, updater, clutter_spatial_density=0.01, prob_detect=0.9,
+                          prob_gate=0.99, include_all=True)
+    hyps = PDA(hyp).associate({track}, dets, t1)[track]
+    means, covs, ws, ss_beta = [], [], [], {}
+    for h in hyps:
+        if h:
+            u = updater.update(h)
+            means.append(u.state_vector)
+            covs.append(u.covar)
+            ss_beta[tuple(np.asarray(h.measurement.state_vector, float).ravel())] = float(h.probability)
+        else:
+            means.append(h.prediction.state_vector)
+            covs.append(h.prediction.covar)
+            ss_beta0 = float(h.probability)
+        ws.append(float(h.probability))
+    m, C = gm_reduce_single(StateVectors(means), np.stack(covs, axis=2), np.array(ws))
+    perm = [0, 2, 1, 3]  # Stone Soup [x, vx, y, vy] -> trackcore [x, y, vx, vy]
+    pred = predictor.predict(track.state, timestamp=t1)
+    xp = np.asarray(pred.state_vector, float).ravel()[perm]
+    Pp = np.asarray(pred.covar, float)[np.ix_(perm, perm)]
+    H = np.eye(2, 4)
+    S = H @ Pp @ H.T + R
+    lik = stats.multivariate_normal(H @ xp, S).pdf(zs)
+    b0, b = pda_betas(lik, 0.9, 0.99, 0.01)
+    assert b0 == pytest.approx(ss_beta0, rel=1e-12)
+    for zj, bj in zip(zs, b):
+        assert bj == pytest.approx(ss_beta[tuple(zj)], rel=1e-12)
+    r = pda_update(xp, Pp, zs, H @ xp, H, R, b, b0)
+    np.testing.assert_allclose(r.x, np.asarray(m, float).ravel()[perm], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(r.P, np.asarray(C, float)[np.ix_(perm, perm)], rtol=0, atol=1e-12)
