@@ -463,6 +463,10 @@ def test_bootstrap_step_bad_input():
         bootstrap_step(np.zeros((0, 4)), np.zeros(0), F, L, [1.0, 0.0], np.eye(2), rng)
     with pytest.raises(TypeError, match="rng"):
         bootstrap_step(X, lw, F, L, [1.0, 0.0], np.eye(2), None)
+    with pytest.raises(ValueError, match="L"):
+        bootstrap_step(X, lw, F, np.ones((4, 5)), [1.0, 0.0], np.eye(2), rng)
+    with pytest.raises(ValueError, match="scratch"):
+        bootstrap_step(X, lw, F, L, [1.0, 0.0], np.eye(2), rng, scratch=np.empty((4, 4)))
 
 
 def test_kernels_link_into_a_fresh_callers_kernel(tmp_path):

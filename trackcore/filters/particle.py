@@ -850,10 +850,11 @@ def bootstrap_step(particles, logw, F, L, z, R, rng, model="range_bearing", *,
     N, n = X.shape
     if N == 0:
         raise ValueError("particles must not be empty")
-    lw = _as_logw(logw, N).copy() if not (isinstance(logw, np.ndarray) and logw.dtype == np.float64
-                                           and logw.flags.c_contiguous) else _as_logw(logw, N)
+    lw = _as_logw(logw, N)  # the caller's array itself when already float64 C-contiguous
     F = as_square_matrix(F, "F", n)
     L = as_matrix(L, "L", (n, None))
+    if L.shape[1] > n:
+        raise ValueError(f"L must have at most {n} columns (Q = L L^T), got {L.shape}")
     z = as_vector(z, "z") if not (isinstance(z, (list, tuple)) and len(z) == 0) else np.zeros(0)
     ess_threshold = as_scalar(ess_threshold, "ess_threshold")
     if not 0.0 <= ess_threshold <= 1.0:
