@@ -238,3 +238,55 @@ def test_fast_validation_matches_core_checks():
     P2[3, 3] = -100.0
     with pytest.raises(ValueError, match="P"):
         kf_update(x, P2, np.zeros(2), H, R)
+
+
+def _batch_problem(seed, n_runs=6, K=12):
+    rng = np.random.default_rng(seed)
+    F, Q, H = cv_transition(1.0), cv_process_noise(1.0, 0.5), position_matrix()
+    R = np.array([[4.0, 0.5], [0.5, 2.0]])
+    zs = rng.normal(size=(n_runs, K, 2)) * 3.0
+    return zs, np.array([0.0, 0.0, 1.0, -1.0]), np.diag([10.0, 10.0, 2.0, 2.0]), F, Q, H, R
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_batch_equals_single_runs_bit_for_bit(seed):
+    from trackcore.filters.kalman import kalman_filter_batch
+    zs, x0, P0, F, Q, H, R = _batch_problem(seed)
+    zs[1, 3] = np.nan          # runs with missed scans take the per-run path
+    zs[4, 0] = np.nan
+    zs[4, -1] = np.nan
+    batch = kalman_filter_batch(zs, x0, P0, F, Q, H, R)
+    assert batch.xs.shape == (6, 12, 4) and batch.Ps.shape == (6, 12, 4, 4)
+    for r in range(zs.shape[0]):
+        single = kalman_filter_run(zs[r], x0, P0, F, Q, H, R)
+        for a, b in zip(single, batch):
+            assert np.array_equal(a, b[r], equal_nan=True)
+
+
+def test_batch_edge_cases_and_bad_input():
+    from trackcore.filters.kalman import kalman_filter_batch
+    zs, x0, P0, F, Q, H, R = _batch_problem(2)
+    empty = kalman_filter_batch(zs[:0], x0, P0, F, Q, H, R)
+    assert empty.xs.shape == (0, 12, 4) and empty.nis.shape == (0, 12)
+    assert kalman_filter_batch(zs[:, :0], x0, P0, F, Q, H, R).Ps.shape == (6, 0, 4, 4)
+    # m = 0: every scan empty -> prediction only, nis = loglik = 0
+    none = kalman_filter_batch(np.zeros((2, 3, 0)), x0, P0, F, Q, np.zeros((0, 4)), None)
+    single = kalman_filter_run(np.zeros((3, 0)), x0, P0, F, Q, np.zeros((0, 4)), None)
+    assert np.array_equal(none.xs[1], single.xs) and np.array_equal(none.Ps[0], single.Ps)
+    assert np.all(none.nis == 0.0) and np.all(none.loglik == 0.0)
+    with pytest.raises(ValueError, match="zs"):
+        kalman_filter_batch(zs[0], x0, P0, F, Q, H, R)          # 2-D
+    bad = zs.copy()
+    bad[2, 1, 0] = np.nan                                        # half a row NaN
+    with pytest.raises(ValueError, match="zs"):
+        kalman_filter_batch(bad, x0, P0, F, Q, H, R)
+    bad[2, 1, 0] = np.inf
+    with pytest.raises(ValueError, match="zs"):
+        kalman_filter_batch(bad, x0, P0, F, Q, H, R)
+    with pytest.raises(ValueError, match="H"):
+        kalman_filter_batch(np.zeros((2, 3, 3)), x0, P0, F, Q, H, R)
+    with pytest.raises(ValueError, match="P0"):
+        kalman_filter_batch(zs, x0, -P0, F, Q, H, R)
+    with pytest.raises(ValueError, match="not positive definite at scan 0 of run 0"):
+        kalman_filter_batch(np.zeros((2, 3, 2)), np.zeros(4), np.zeros((4, 4)), np.eye(4),
+                            np.zeros((4, 4)), H, np.zeros((2, 2)))

@@ -35,10 +35,12 @@ __all__ = [
     "kf_update",
     "ekf_update",
     "kalman_filter_run",
+    "kalman_filter_batch",
     "cholesky_lower_kernel",
     "kf_predict_kernel",
     "kf_update_kernel",
     "kalman_filter_run_kernel",
+    "kalman_filter_batch_kernel",
 ]
 
 
@@ -293,6 +295,128 @@ def kalman_filter_run_kernel(zs, x0, P0, F, Q, H, R, xs, Ps, nis, loglik):
     return -1
 
 
+@nb.njit(cache=True)
+def _has_missed_scan(zs_run):
+    for k in range(zs_run.shape[0]):
+        if math.isnan(zs_run[k, 0]):
+            return True
+    return False
+
+
+@nb.njit(cache=True)
+def kalman_filter_batch_kernel(zs, x0, P0, F, Q, H, R, xs, Ps, nis, loglik):
+    """:func:`kalman_filter_run_kernel` for ``n_runs`` runs ``zs`` (n_runs, K, m)
+    sharing the model and the prior, into outputs with a leading run axis.
+
+    The covariance recursion of a linear KF does not depend on the measurements,
+    so for every run without a missed scan (no NaN row) it is computed once and
+    only the means, innovations, NIS and log-likelihoods are run per run, with
+    the same arithmetic as the single-run kernel (bit-identical results).  A run
+    with missed scans goes through :func:`kalman_filter_run_kernel` itself.
+    Returns ``(run, scan)`` of the first failure (``S`` not positive definite)
+    in run order, or ``(-1, -1)``.
+    """
+    n_runs = zs.shape[0]
+    K = zs.shape[1]
+    m = zs.shape[2]
+    n = x0.shape[0]
+    # shared recursion for the all-detected pattern
+    Pc_all = np.empty((K, n, n))
+    K_all = np.empty((K, n, m))
+    L_all = np.empty((K, m, m))
+    hld_all = np.empty(K)
+    Pp = np.empty((n, n))
+    FP = np.empty((n, n))
+    xp = np.empty(n)
+    xdummy = np.empty(n)
+    innov = np.zeros(m)
+    S = np.empty((m, m))
+    Kg = np.empty((n, m))
+    PHt, W, RKt, L, A, y = _update_scratch(n, m)
+    Pc = P0.copy()
+    bad_shared = -1
+    for k in range(K):
+        _predict_into(x0, Pc, F, Q, xp, Pp, FP)
+        if m == 0:
+            for i in range(n):
+                for j in range(n):
+                    Pc[i, j] = Pp[i, j]
+            hld_all[k] = 0.0
+        else:
+            _, _, ok = _update_into(xp, Pp, innov, H, R, xdummy, Pc, S, Kg, PHt, W, RKt, L,
+                                    A, y)
+            if not ok:
+                bad_shared = k
+                break
+            det_half = 1.0
+            for j in range(m):
+                det_half *= L[j, j]
+            if det_half > 1e-280 and det_half < 1e280:
+                hld = math.log(det_half)
+            else:
+                hld = 0.0
+                for j in range(m):
+                    hld += math.log(L[j, j])
+            hld_all[k] = hld
+            for i in range(n):
+                for j in range(m):
+                    K_all[k, i, j] = Kg[i, j]
+            for i in range(m):
+                for j in range(m):
+                    L_all[k, i, j] = L[i, j]
+        for i in range(n):
+            for j in range(n):
+                Pc_all[k, i, j] = Pc[i, j]
+    xc = np.empty(n)
+    for r in range(n_runs):
+        if m > 0 and _has_missed_scan(zs[r]):
+            bad = kalman_filter_run_kernel(zs[r], x0, P0, F, Q, H, R, xs[r], Ps[r], nis[r],
+                                           loglik[r])
+            if bad >= 0:
+                return r, bad
+            continue
+        if bad_shared >= 0:
+            return r, bad_shared
+        for i in range(n):
+            xc[i] = x0[i]
+        for k in range(K):
+            for i in range(n):
+                s = 0.0
+                for j in range(n):
+                    s += F[i, j] * xc[j]
+                xp[i] = s
+            if m == 0:
+                for i in range(n):
+                    xc[i] = xp[i]
+                nis[r, k] = 0.0
+                loglik[r, k] = 0.0
+            else:
+                for i in range(m):
+                    s = zs[r, k, i]
+                    for j in range(n):
+                        s -= H[i, j] * xp[j]
+                    innov[i] = s
+                v = 0.0
+                for j in range(m):
+                    s = innov[j]
+                    for q in range(j):
+                        s -= L_all[k, j, q] * y[q]
+                    y[j] = s / L_all[k, j, j]
+                    v += y[j] * y[j]
+                nis[r, k] = v
+                loglik[r, k] = -0.5 * (m * LOG_2PI + v) - hld_all[k]
+                for i in range(n):
+                    s = xp[i]
+                    for j in range(m):
+                        s += K_all[k, i, j] * innov[j]
+                    xc[i] = s
+            for i in range(n):
+                xs[r, k, i] = xc[i]
+                for j in range(n):
+                    Ps[r, k, i, j] = Pc_all[k, i, j]
+    return -1, -1
+
+
 # ---------------------------------------------------------------------- wrappers
 def _check_state(x, P, x_name="x", P_name="P"):
     if not (type(x) is np.ndarray and x.ndim == 1):
@@ -414,4 +538,45 @@ def kalman_filter_run(zs, x0, P0, F, Q, H, R):
     bad = kalman_filter_run_kernel(zs, x0, P0, F, Q, H, R, xs, Ps, nis, loglik)
     if bad >= 0:
         raise ValueError(f"innovation covariance S is not positive definite at scan {bad}")
+    return KalmanRun(xs, Ps, nis, loglik)
+
+
+def _check_zs(zs, ndim):
+    if not (type(zs) is np.ndarray and zs.dtype == np.float64 and zs.ndim == ndim
+            and zs.flags.c_contiguous):
+        zs = as_array(zs, "zs", ndim=ndim, finite=False)
+    if not math.isfinite(zs.sum()):
+        nan = np.isnan(zs)
+        if np.any(nan.any(axis=-1) != nan.all(axis=-1)) or np.any(np.isinf(zs)):
+            raise ValueError("zs must be finite; a missed scan is a row that is entirely NaN")
+    return zs
+
+
+def kalman_filter_batch(zs, x0, P0, F, Q, H, R):
+    """:func:`kalman_filter_run` for a whole Monte Carlo batch in one kernel call.
+
+    ``zs`` is ``(n_runs, K, m)``: run ``r``'s scans, all runs sharing the prior
+    ``(x0, P0)`` and the model ``(F, Q, H, R)``; a row of NaN is a missed scan.
+    Returns :class:`KalmanRun` with a leading run axis: ``xs (n_runs, K, n)``,
+    ``Ps (n_runs, K, n, n)``, ``nis`` and ``loglik`` ``(n_runs, K)``; run ``r``
+    equals ``kalman_filter_run(zs[r], x0, P0, F, Q, H, R)`` bit for bit.  The
+    inputs are validated once, and the measurement-independent covariance
+    recursion is computed once for all runs without missed scans.
+    """
+    x0, P0, n = _check_state(x0, P0, "x0", "P0")
+    zs = _check_zs(zs, 3)
+    n_runs, K, m = zs.shape
+    F = checked(F, "F", (n, n))
+    Q = checked_cov(Q, "Q", n)
+    H = checked(H, "H", (m, n))
+    R = checked_cov(R, "R", m) if m else np.zeros((0, 0))
+    xs = np.empty((n_runs, K, n))
+    Ps = np.empty((n_runs, K, n, n))
+    nis = np.empty((n_runs, K))
+    loglik = np.empty((n_runs, K))
+    if n_runs and K:
+        run, scan = kalman_filter_batch_kernel(zs, x0, P0, F, Q, H, R, xs, Ps, nis, loglik)
+        if run >= 0:
+            raise ValueError(f"innovation covariance S is not positive definite at scan {scan} "
+                             f"of run {run}")
     return KalmanRun(xs, Ps, nis, loglik)
