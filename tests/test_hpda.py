@@ -11,7 +11,7 @@ from trackcore.association import (
     hpda_existence_delta, hpda_false_rank_probabilities, hpda_log_rank_probabilities,
     hpda_measurement_count_probability, hpda_mixture_loglik, hpda_rank_probabilities,
     hpda_rank_probabilities_printed, hpda_select, pa_bar, pa_bar_alternating, rank_gamma,
-    rank_probability_q, simulate_hpda_ranks)
+    rank_probability_q, simulate_existence_posterior, simulate_hpda_ranks)
 
 
 def tau_of(pd, rho):
@@ -303,3 +303,20 @@ def test_property_existence_update_in_unit_interval(p, d):
     assert 0.0 <= v <= 1.0
     if d <= 0 and p > 0:
         assert v >= p - 1e-12
+
+
+def test_existence_recursion_matches_monte_carlo():
+    g2 = 9.21
+    pg = 1 - math.exp(-g2 / 2)
+    rho, pd, lv = 10.0, 0.9, 1.5
+    tau = tau_of(pd, rho)
+    vg = math.pi * g2
+    ne, nh = simulate_existence_posterior(np.random.default_rng(5), 2_000_000, 2, 1, (1.0, 0.5),
+                                          0.3, rho, tau, g2, lv, 0.5)
+    ph = nh / ne
+    se = math.sqrt(ph * (1 - ph) / ne)
+    nd = math.exp(-0.5 * 1.25) / (2 * math.pi)
+    post = existence_update(0.5, hpda_existence_delta(2, 1, nd, rho, tau, pg, lv / vg, vg))
+    assert ne > 5000 and abs(ph - post) < 4 * se
+    with pytest.raises(ValueError, match="s must"):
+        simulate_existence_posterior(np.random.default_rng(), 10, 1, 2, (0, 0), 0.3, 10, 1, 9, 1, .5)
