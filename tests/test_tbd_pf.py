@@ -237,6 +237,8 @@ def test_scenario_run_is_deterministic_and_c_beats_a():
     # only detections within R of the prediction are processed
     assert np.all(r1.n_processed == np.bincount(sc.scan_index[r1.processed], minlength=250))
     assert r1.n_processed.mean() < 15.0
+    d = np.linalg.norm(sc.positions - r1.window_centers[sc.scan_index], axis=1)
+    np.testing.assert_array_equal(r1.processed, d <= 2500.0)
     m_err = tbd_measurement_errors(sc.positions, sc.offsets, truth.states, r1.processed)
     assert np.nanmean(m_err) > np.mean(e)  # the filter beats the raw detections
 

@@ -233,3 +233,23 @@ def test_parameters_bad_input(truth):
         simulate_tbd_radar(truth, TbdRadarParameters(), 3)
     with pytest.raises(TypeError, match="params"):
         tbd_radar_truth({"n_scans": 10})
+
+
+def test_paired_trial(truth):
+    from trackcore.scenarios import tbd_paired_trial
+    from trackcore.trackers import TbdTrackerConfig
+    cfgs = {"C": TbdTrackerConfig(method="C", n_particles=50),
+            "C-copy": TbdTrackerConfig(method="C", n_particles=50),
+            "A": TbdTrackerConfig(method="A")}
+    r = tbd_paired_trial(np.random.default_rng(1), cfgs, TbdRadarParameters(), truth, keep=True)
+    # same method, same configuration -> same filter stream -> identical errors
+    np.testing.assert_array_equal(r.errors["C"], r.errors["C-copy"])
+    assert r.errors["A"].shape == (250,) and r.scans.n_scans == 250
+    r2 = tbd_paired_trial(np.random.default_rng(1), {"C": cfgs["C"]}, TbdRadarParameters(), truth)
+    np.testing.assert_array_equal(r2.errors["C"], r.errors["C"])  # independent of the other configs
+    np.testing.assert_array_equal(r2.x0, r.x0)
+    assert r2.scans is None and r2.tracks == {}
+    with pytest.raises(TypeError, match="configs"):
+        tbd_paired_trial(np.random.default_rng(1), {}, TbdRadarParameters(), truth)
+    with pytest.raises(TypeError, match="configs"):
+        tbd_paired_trial(np.random.default_rng(1), {"C": "C"}, TbdRadarParameters(), truth)

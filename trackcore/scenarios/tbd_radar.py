@@ -38,8 +38,9 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from ..core.validation import as_array, as_count, as_positive, as_rng
-from ..trackers.tbd_pf import spherical_to_cartesian
+from ..core.validation import as_array, as_count, as_covariance, as_positive, as_rng
+from ..trackers.tbd_pf import (TBD_METHODS, TbdTrackerConfig, run_tbd_tracker,
+                               spherical_to_cartesian, tbd_position_errors)
 
 __all__ = [
     "SPEED_OF_LIGHT",
@@ -53,7 +54,13 @@ __all__ = [
     "select_threshold",
     "sample_clutter",
     "radar_equation_snr",
+    "TBD_INITIAL_COVARIANCE",
+    "TbdTrialResult",
+    "tbd_paired_trial",
 ]
+
+#: P_0 of spec 003 section 4: 300 m per position axis, 20 m/s per velocity axis
+TBD_INITIAL_COVARIANCE = np.diag([300.0 ** 2] * 3 + [20.0 ** 2] * 3)
 
 SPEED_OF_LIGHT = 299_792_458.0
 BOLTZMANN = 1.380649e-23
@@ -348,3 +355,49 @@ def select_threshold(scans, threshold_db):
     return TbdRadarScans(scans.positions[keep], scans.range_rate[keep], scans.snr[keep],
                          scans.is_target[keep], offsets, scans.target_snr, scans.target_zeta,
                          thr, scans.sim_radius)
+
+
+# ----------------------------------------------------------------------------- paired Monte Carlo run
+@dataclass(frozen=True)
+class TbdTrialResult:
+    """One paired Monte Carlo run: every tracker on the same detections and start."""
+    errors: dict        # name -> (K,) E_err(k) (eq 20)
+    n_processed: dict   # name -> (K,) detections inside the processing sphere
+    x0: np.ndarray      # (6,) the shared initial estimate
+    scans: object       # TbdRadarScans (None unless keep=True)
+    tracks: dict        # name -> TbdTrackResult (empty unless keep=True)
+
+
+def tbd_paired_trial(rng, configs, params=TbdRadarParameters(), truth=None,
+                     P0=TBD_INITIAL_COVARIANCE, keep=False):
+    """One run of the chapter's experiment (spec 003 section 5.4), for ``montecarlo.run``.
+
+    ``rng`` is split into a scenario stream (detections, then ``x0 ~ N(s_0, P0)``) and a
+    filter stream per tracker *method* (``TBD_METHODS`` order), so every configuration of a
+    method sees the same random numbers (common random numbers across ablations) and
+    every method sees the same detections and start.  ``configs``: dict name ->
+    :class:`~trackcore.trackers.TbdTrackerConfig`.  ``truth`` defaults to
+    ``tbd_radar_truth(params)``.  ``keep=True`` also returns the scans and full tracks.
+    """
+    rng = as_rng(rng)
+    if not isinstance(configs, dict) or not configs:
+        raise TypeError("configs must be a non-empty dict of name -> TbdTrackerConfig")
+    for name, cfg in configs.items():
+        if not isinstance(cfg, TbdTrackerConfig):
+            raise TypeError(f"configs[{name!r}] must be a TbdTrackerConfig")
+    if truth is None:
+        truth = tbd_radar_truth(params)
+    P0 = as_covariance(P0, "P0", 6, strict=True)
+    r_scene, r_filter = rng.spawn(2)
+    scans = simulate_tbd_radar(truth, params, r_scene)
+    x0 = truth.states[0] + np.linalg.cholesky(P0) @ r_scene.standard_normal(6)
+    seeds = r_filter.bit_generator.seed_seq.spawn(len(TBD_METHODS))
+    errors, nproc, tracks = {}, {}, {}
+    for name, cfg in configs.items():
+        g = np.random.default_rng(seeds[TBD_METHODS.index(cfg.method)])
+        res = run_tbd_tracker(scans, x0, P0, g, cfg)
+        errors[name] = tbd_position_errors(res.estimates, truth.states)
+        nproc[name] = res.n_processed
+        if keep:
+            tracks[name] = res
+    return TbdTrialResult(errors, nproc, x0, scans if keep else None, tracks)

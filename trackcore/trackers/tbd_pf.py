@@ -311,7 +311,8 @@ def _weighted_state(particles, logw, w, mean):
 @nb.njit(cache=True)
 def _pf_run_kernel(method, particles, logw, F, L, pos, rr, snr, log_pfa, logla, offsets, R,
                    sig_r, sig_v, use_doppler, resample_below, pd, clutter_density,
-                   sig_range, sig_angle, sig_rr, rng, est, nproc, processed, ess, resampled):
+                   sig_range, sig_angle, sig_rr, rng, est, centers, nproc, processed, ess,
+                   resampled):
     N = particles.shape[0]
     K = offsets.shape[0] - 1
     max_m = 0
@@ -332,6 +333,8 @@ def _pf_run_kernel(method, particles, logw, F, L, pos, rr, snr, log_pfa, logla, 
             propagate_linear_kernel(particles, F, L, rng, particles)
         _weighted_state(particles, logw, w, mean)
         rr_pred = _radial_velocity(mean[0], mean[1], mean[2], mean[3], mean[4], mean[5])
+        for a in range(3):
+            centers[k, a] = mean[a]
         m = _window(pos, snr, log_pfa, offsets[k], offsets[k + 1], mean, R, idx, lpd, processed)
         nproc[k] = m
         updated = False
@@ -387,7 +390,7 @@ def _pf_run_kernel(method, particles, logw, F, L, pos, rr, snr, log_pfa, logla, 
 
 @nb.njit(cache=True)
 def _ekf_run_kernel(x, P, F, Q, Rm, pos, rr, snr, log_pfa, offsets, R, sig_r, sig_v, gate,
-                    use_doppler, est, nproc, processed, accepted):
+                    use_doppler, est, centers, nproc, processed, accepted):
     K = offsets.shape[0] - 1
     nz = 4 if use_doppler else 3
     max_m = 0
@@ -413,6 +416,8 @@ def _ekf_run_kernel(x, P, F, Q, Rm, pos, rr, snr, log_pfa, offsets, R, sig_r, si
             x[:] = xp
             P[:, :] = Pp
         rr_pred = _radial_velocity(x[0], x[1], x[2], x[3], x[4], x[5])
+        for a in range(3):
+            centers[k, a] = x[a]
         m = _window(pos, snr, log_pfa, offsets[k], offsets[k + 1], x, R, idx, lpd, processed)
         nproc[k] = m
         if m > 0:
@@ -497,6 +502,7 @@ class TbdTrackerConfig:
 class TbdTrackResult:
     """Output of :func:`run_tbd_tracker` over ``K`` scans with ``M`` detections in total."""
     estimates: np.ndarray   # (K, 6) posterior estimates [x, y, z, vx, vy, vz]
+    window_centers: np.ndarray  # (K, 3) predicted position: centre of the processing sphere
     n_processed: np.ndarray  # (K,) detections inside the processing sphere
     processed: np.ndarray   # (M,) bool: detection was inside the sphere of its scan
     ess: np.ndarray         # (K,) N_eff after the update (NaN for the EKF)
@@ -560,6 +566,7 @@ def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig()):
     Q = cv_process_noise(T, config.sigma_a ** 2, dim=3, kind="dwna")
     log_pfa = math.log(config.pfa)
     est = np.empty((K, 6))
+    centers = np.empty((K, 3))
     nproc = np.zeros(K, dtype=np.int64)
     processed = np.zeros(M, dtype=bool)
     resampled = np.zeros(K, dtype=bool)
@@ -572,7 +579,7 @@ def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig()):
         _ekf_run_kernel(x, P, F, Q, np.ascontiguousarray(Rm), pos, rr, snr, log_pfa, off,
                         float(config.processing_radius), float(config.sigma_r),
                         float(config.sigma_v), float(config.gate), bool(config.use_doppler),
-                        est, nproc, processed, accepted)
+                        est, centers, nproc, processed, accepted)
         ess = np.full(K, np.nan)
     else:
         N = int(config.n_particles)
@@ -590,8 +597,8 @@ def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig()):
                        float(config.resample_threshold * N), float(config.detection_probability),
                        float(config.clutter_density), float(config.sigma_range),
                        float(config.sigma_angle), float(config.sigma_range_rate), rng,
-                       est, nproc, processed, ess, resampled)
-    return TbdTrackResult(est, nproc, processed, ess, resampled, accepted)
+                       est, centers, nproc, processed, ess, resampled)
+    return TbdTrackResult(est, centers, nproc, processed, ess, resampled, accepted)
 
 
 # =============================================================================== pieces, for tests and notebooks
