@@ -172,26 +172,17 @@ def propagate_linear_kernel(particles, F, L, rng, out):
     """``out[i] = F particles[i] + L w_i``, ``w_i ~ N(0, I_k)``.
 
     ``L`` is ``(n, k)``; the ``k`` draws of particle ``i`` are taken in
-    order from ``rng`` (``rng.standard_normal()``), particle by particle.
-    ``out`` may be the same array as ``particles``.
+    order from ``rng`` (``rng.standard_normal()``), particle by particle
+    (all draws first, then one arithmetic pass).  ``out`` may be the same
+    array as ``particles``.
     """
-    N, n = particles.shape
+    N = particles.shape[0]
     k = L.shape[1]
-    tmp = np.empty(n)
-    w = np.empty(k)
+    noise = np.empty((N, k))
     for i in range(N):
-        for a in range(n):
-            s = 0.0
-            for b in range(n):
-                s += F[a, b] * particles[i, b]
-            tmp[a] = s
-        for c in range(k):
-            w[c] = rng.standard_normal()
-        for a in range(n):
-            s = tmp[a]
-            for c in range(k):
-                s += L[a, c] * w[c]
-            out[i, a] = s
+        for c2 in range(k):
+            noise[i, c2] = rng.standard_normal()
+    _move_range(particles, 0, N, F, L, noise, out)
 
 
 def propagate_linear(particles, F, Q, rng, *, noise_factor=None, out=None):
@@ -647,12 +638,11 @@ def loglik_range_bearing(particles, z, R, sensor=(0.0, 0.0), *, parallel=False):
 # fused bootstrap step
 # --------------------------------------------------------------------------
 @nb.njit(cache=True)
-def _move_weigh_range(particles, lo, hi, F, L, noise, z, Rinv, c, model, sx, sy, logw):
-    """Propagate particles ``lo..hi-1`` with pre-drawn ``noise[i, :k]`` and add
-    their log-likelihoods to ``logw`` (skipped when ``z`` is empty)."""
+def _move_range(particles, lo, hi, F, L, noise, out):
+    """``out[i] = F particles[i] + L noise[i, :k]`` for ``i`` in ``lo..hi-1``
+    (``out`` may be ``particles``)."""
     n = particles.shape[1]
     k = L.shape[1]
-    d = z.shape[0]
     if n == 4:
         f00, f01, f02, f03 = F[0, 0], F[0, 1], F[0, 2], F[0, 3]
         f10, f11, f12, f13 = F[1, 0], F[1, 1], F[1, 2], F[1, 3]
@@ -673,10 +663,10 @@ def _move_weigh_range(particles, lo, hi, F, L, noise, z, Rinv, c, model, sx, sy,
                 y1 += L[1, c2] * w
                 y2 += L[2, c2] * w
                 y3 += L[3, c2] * w
-            particles[i, 0] = y0
-            particles[i, 1] = y1
-            particles[i, 2] = y2
-            particles[i, 3] = y3
+            out[i, 0] = y0
+            out[i, 1] = y1
+            out[i, 2] = y2
+            out[i, 3] = y3
     else:
         tmp = np.empty(n)
         for i in range(lo, hi):
@@ -688,7 +678,16 @@ def _move_weigh_range(particles, lo, hi, F, L, noise, z, Rinv, c, model, sx, sy,
                     s += L[a, c2] * noise[i, c2]
                 tmp[a] = s
             for a in range(n):
-                particles[i, a] = tmp[a]
+                out[i, a] = tmp[a]
+
+
+@nb.njit(cache=True)
+def _move_weigh_range(particles, lo, hi, F, L, noise, z, Rinv, c, model, sx, sy, logw):
+    """Propagate particles ``lo..hi-1`` with pre-drawn ``noise[i, :k]`` and add
+    their log-likelihoods to ``logw`` (skipped when ``z`` is empty); returns
+    the largest resulting log-weight in the range."""
+    d = z.shape[0]
+    _move_range(particles, lo, hi, F, L, noise, particles)
     top = -np.inf
     if d > 0:
         if model == 1:
