@@ -148,3 +148,79 @@ def test_measurements_bad_input():
         houles_measurements(np.full((5, 4), np.nan), rng)
     with pytest.raises(ValueError, match="times"):
         houles_measurements(truth, rng, times=np.arange(3.0))
+
+
+# ---------------------------------------------------------------- the experiment and Table 1
+from trackcore.scenarios import (HOULES_TIMES, gate_miss_failures, houles_imm_trial,  # noqa: E402
+                                 houles_table, houles_windows, position_failures)
+from trackcore.trackers import car_imm_model_set, tom_imm_model_set  # noqa: E402
+
+
+def test_windows_and_aggregation_identity():
+    man, non = houles_windows()
+    assert man.sum() == 40 and non.sum() == 50 and HOULES_TIMES[0] == 1 and HOULES_TIMES[-1] == 90
+    assert man[HOULES_TIMES == 21][0] and man[HOULES_TIMES == 40][0]
+    assert not man[HOULES_TIMES == 20][0] and not man[HOULES_TIMES == 41][0]
+    e = np.random.default_rng(0).exponential(300.0, size=(50, 2, 90))
+    tab = houles_table(e, np.zeros((50, 2), bool), np.random.default_rng(1), n_boot=200)
+    np.testing.assert_allclose(tab.rmse[:, 0] ** 2,
+                               4 / 9 * tab.rmse[:, 1] ** 2 + 5 / 9 * tab.rmse[:, 2] ** 2, rtol=1e-12)
+    np.testing.assert_allclose(tab.rmse[:, 0], np.sqrt(e.mean(axis=(0, 2))), rtol=1e-12)
+    np.testing.assert_allclose(tab.ratio[0], 1.0)
+    assert np.all(tab.rmse_ci[..., 0] <= tab.rmse) and np.all(tab.rmse <= tab.rmse_ci[..., 1])
+    np.testing.assert_allclose(tab.rmse_all, tab.rmse)
+
+
+def test_table_excludes_failed_runs():
+    e = np.full((4, 1, 90), 100.0)
+    e[0, 0, 10] = 1e6
+    failed = position_failures(e, 200.0)
+    np.testing.assert_array_equal(failed, [[True], [False], [False], [False]])
+    tab = houles_table(e, failed, np.random.default_rng(0), n_boot=50)
+    np.testing.assert_allclose(tab.rmse, 10.0)
+    assert tab.fail_rate[0] == pytest.approx(0.25)
+    assert tab.rmse_all[0, 0] > 10.0
+
+
+def test_gate_miss_failures():
+    g = np.array([[1, 0, 0, -1, 0, 1],    # 3 misses with a missed detection inside
+                  [0, 0, 1, 0, 0, 1],     # never 3 in a row
+                  [-1, -1, -1, -1, 1, 1]], dtype=np.int8)
+    np.testing.assert_array_equal(gate_miss_failures(g, 3), [True, False, False])
+    np.testing.assert_array_equal(gate_miss_failures(g, 2), [True, True, False])
+    with pytest.raises(TypeError, match="target_gated"):
+        gate_miss_failures(np.zeros(3))
+    with pytest.raises(ValueError, match="n_consecutive"):
+        gate_miss_failures(g, 0)
+
+
+def test_trial_shapes_and_common_random_numbers():
+    sets = [car_imm_model_set(), tom_imm_model_set()]
+    r = houles_imm_trial(np.random.default_rng(3), sets)
+    assert r.pos_err2.shape == (2, 90) and r.nees.shape == (2, 89) and r.mu.shape == (2, 89, 3)
+    assert r.pos_err2[0, 0] == r.pos_err2[1, 0]  # same initialisation
+    assert set(np.unique(r.target_gated)) <= {0, 1}
+    # the same run with one filter gives the same numbers for that filter
+    r1 = houles_imm_trial(np.random.default_rng(3), sets[:1])
+    np.testing.assert_array_equal(r1.pos_err2[0], r.pos_err2[0])
+    assert np.all(np.isfinite(r.nees)) and np.all(r.nis[np.isfinite(r.nis)] >= 0)
+    rm = houles_imm_trial(np.random.default_rng(4), sets[:1], pd=0.5)
+    assert np.any(rm.target_gated == -1) and np.any(np.isnan(rm.nis))
+
+
+def test_table_bad_inputs():
+    e = np.ones((5, 2, 90))
+    ok = np.zeros((5, 2), bool)
+    rng = np.random.default_rng(0)
+    with pytest.raises(ValueError, match="pos_err2"):
+        houles_table(np.ones((5, 2, 80)), ok, rng)
+    with pytest.raises(ValueError, match="failed"):
+        houles_table(e, np.zeros((5, 3), bool), rng)
+    with pytest.raises(ValueError, match="reference"):
+        houles_table(e, ok, rng, reference=2)
+    with pytest.raises(TypeError, match="rng"):
+        houles_table(e, ok, 1)
+    with pytest.raises(ValueError, match="pos_err2"):
+        position_failures(-np.ones((2, 90)))
+    with pytest.raises(ValueError, match="threshold"):
+        position_failures(np.ones((2, 90)), threshold=0.0)
