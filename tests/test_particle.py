@@ -155,6 +155,14 @@ def test_resampling_n_equal_one_and_degenerate(scheme):
 
 
 @pytest.mark.parametrize("scheme", list(SCHEMES))
+def test_resampling_tiny_weights(scheme):
+    w = np.array([0.0, 3e-320, 1e-320, 0.0])
+    idx = SCHEMES[scheme](w, np.random.default_rng(0), n_out=1000)
+    assert set(idx.tolist()) <= {1, 2}
+    assert 600 < np.sum(idx == 1) < 900
+
+
+@pytest.mark.parametrize("scheme", list(SCHEMES))
 @pytest.mark.parametrize("bad", [[0.0, 0.0, 0.0], [0.5, np.nan], [0.5, np.inf], [0.5, -0.1], []])
 def test_resampling_bad_weights(scheme, bad):
     with pytest.raises(ValueError, match="w"):

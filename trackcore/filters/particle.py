@@ -155,6 +155,8 @@ def _as_weights(w, name="w"):
     total = float(arr.sum())
     if not total > 0:
         raise ValueError(f"{name} must have a positive sum (all weights are zero)")
+    if total < 1e-280:  # keep the kernels' cumulative sums out of the subnormal range
+        arr = arr / arr.max()
     return arr
 
 
@@ -317,11 +319,14 @@ def _systematic_marks(w, total, u0, out):
     for i in range(M):
         out[i] = 0
     inv = M / total
+    tiny = not math.isfinite(inv)
+    if tiny:  # subnormal total: normalise each weight by division instead
+        inv = float(M)
     cum = 0.0
     prev = 0
     first = -1
     for j in range(N):
-        wj = w[j]
+        wj = w[j] / total if tiny else w[j]
         if wj > 0.0:
             if first < 0:
                 first = j
