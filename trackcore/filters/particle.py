@@ -77,19 +77,15 @@ _MODELS = {"position": MODEL_POSITION, "range_bearing": MODEL_RANGE_BEARING}
 #: names accepted by ``scheme=``
 RESAMPLING_SCHEMES = ("systematic", "stratified", "residual", "multinomial")
 
-# Particle loops run serially unless the caller asks for threads
-# (``parallel=True`` / ``parallel_min``): on a shared machine, or inside a
-# Monte Carlo that already runs one process per core, nested threading is a
-# slowdown (measured: 2-6x slower at N = 1e5 with a load average of 5).
-_SERIAL = 2 ** 62
-# threshold used when a public function is called with parallel=True
-_PARALLEL_MIN = 20000
-
-# Start numba's thread pool now.  A cached ``parallel=True`` kernel that is
-# linked into a *caller's* kernel (e.g. a chapter's njit loop calling
-# bootstrap_step_kernel) needs the threading-layer symbols loaded, otherwise
-# LLVM aborts with "Symbol not found: allocate_sched" in a fresh process.
-nb.get_num_threads()
+# Particle loops run serially unless a public function is called with
+# ``parallel=True``: on a shared machine, or inside a Monte Carlo that already
+# runs one process per core, nested threading is a slowdown (measured 2-6x
+# slower at N = 1e5 with a load average of 5).  The ``*_kernel`` functions
+# never reach a ``parallel=True`` function: a cached parallel kernel linked
+# into a caller's kernel aborts LLVM in a fresh process ("Symbol not found:
+# allocate_sched") unless numba's thread pool was started, and a process that
+# has started GNU OpenMP threads must not fork (see trackcore.montecarlo).
+_PARALLEL_MIN = 20000  # threads only for N >= this, and only on request
 
 
 # --------------------------------------------------------------------------
@@ -575,28 +571,31 @@ def _ll_parallel(particles, z, Rinv, c, model, sx, sy, out):
 
 
 @nb.njit(cache=True)
-def _add_loglik(particles, z, Rinv, logdetR, model, sx, sy, out, parallel_min=_SERIAL):
-    d = z.shape[0]
-    c = -0.5 * (d * 1.8378770664093453 + logdetR)
-    if particles.shape[0] >= parallel_min:
-        _ll_parallel(particles, z, Rinv, c, model, sx, sy, out)
-    else:
-        _ll_serial(particles, z, Rinv, c, model, sx, sy, out)
+def _add_loglik(particles, z, Rinv, logdetR, model, sx, sy, out):
+    c = -0.5 * (z.shape[0] * 1.8378770664093453 + logdetR)
+    _ll_serial(particles, z, Rinv, c, model, sx, sy, out)
 
 
 @nb.njit(cache=True)
-def loglik_gaussian_position_kernel(particles, z, Rinv, logdetR, out, parallel_min=_SERIAL):
+def loglik_gaussian_position_kernel(particles, z, Rinv, logdetR, out):
     """``out[i] += log N(z; particles[i, :d], R)`` (``d = len(z)``), given
     ``Rinv = R^-1`` and ``logdetR = log|R|``."""
-    _add_loglik(particles, z, Rinv, logdetR, 0, 0.0, 0.0, out, parallel_min)
+    _add_loglik(particles, z, Rinv, logdetR, 0, 0.0, 0.0, out)
 
 
 @nb.njit(cache=True)
-def loglik_range_bearing_kernel(particles, z, Rinv, logdetR, sx, sy, out,
-                                parallel_min=_SERIAL):
+def loglik_range_bearing_kernel(particles, z, Rinv, logdetR, sx, sy, out):
     """``out[i] += log N(z - h(x_i); 0, R)``, ``h = (range, bearing)`` from the
     sensor at ``(sx, sy)``, bearing innovation wrapped to (-pi, pi]."""
-    _add_loglik(particles, z, Rinv, logdetR, 1, sx, sy, out, parallel_min)
+    _add_loglik(particles, z, Rinv, logdetR, 1, sx, sy, out)
+
+
+def _loglik_dispatch(X, z, Rinv, logdet, model, sx, sy, out, parallel):
+    if parallel and X.shape[0] >= _PARALLEL_MIN:
+        c = -0.5 * (z.shape[0] * _LOG_2PI + logdet)
+        _ll_parallel(X, z, Rinv, c, model, sx, sy, out)
+    else:
+        _add_loglik(X, z, Rinv, logdet, model, sx, sy, out)
 
 
 def loglik_gaussian_position(particles, z, R, *, parallel=False):
@@ -611,8 +610,7 @@ def loglik_gaussian_position(particles, z, R, *, parallel=False):
         raise ValueError(f"z must have 1..{X.shape[1]} components, got {d}")
     Rinv, logdet = _inv_logdet(as_square_matrix(R, "R", d))
     out = np.zeros(X.shape[0])
-    loglik_gaussian_position_kernel(X, z, Rinv, logdet, out,
-                                    _PARALLEL_MIN if parallel else _SERIAL)
+    _loglik_dispatch(X, z, Rinv, logdet, 0, 0.0, 0.0, out, parallel)
     return out
 
 
@@ -634,8 +632,7 @@ def loglik_range_bearing(particles, z, R, sensor=(0.0, 0.0), *, parallel=False):
     Rinv, logdet = _inv_logdet(as_square_matrix(R, "R", 2))
     sx, sy = _sensor(sensor)
     out = np.zeros(X.shape[0])
-    loglik_range_bearing_kernel(X, z, Rinv, logdet, sx, sy, out,
-                                _PARALLEL_MIN if parallel else _SERIAL)
+    _loglik_dispatch(X, z, Rinv, logdet, 1, sx, sy, out, parallel)
     return out
 
 
@@ -736,30 +733,12 @@ def _move_weigh_parallel(particles, F, L, noise, z, Rinv, c, model, sx, sy, logw
 
 
 @nb.njit(cache=True)
-def bootstrap_step_kernel(particles, logw, F, L, z, Rinv, logdetR, model, sx, sy,
-                          rng, ess_threshold, scratch, parallel_min=_SERIAL):
-    """One bootstrap-PF step in place: propagate, weight, normalise, resample.
-
-    ``particles`` ``(N, n)`` and ``logw`` ``(N,)`` are overwritten; ``scratch``
-    is an ``(N, n)`` work array and ``L`` is ``(n, k)`` with ``k <= n``.
-    ``z`` of length 0 means an empty scan (no weighting).  ``model``:
-    :data:`MODEL_POSITION` or :data:`MODEL_RANGE_BEARING`.  Systematic
-    resampling happens when ``ess_threshold >= 1`` or
-    ``ESS < ess_threshold * N``.
-
-    Random draws: ``N * k`` standard normals (particle by particle, the same
-    stream as :func:`propagate_linear_kernel`), then one ``rng.random()`` if
-    resampling.  The noise is drawn serially first, so the move-and-weigh
-    pass may run in parallel (``N >= parallel_min``) with identical results.
-
-    Returns ``(log_evidence, ess_before_resampling, resampled)`` where
-    ``log_evidence = log sum_i w_i p(z | x_i)`` with the input weights
-    normalised (0 for an empty scan).
-    """
-    N, n = particles.shape
+def _bootstrap_prepare(logw, L, rng, scratch):
+    """Phase 1: log of the prior total weight, and the process noise drawn
+    serially into ``scratch[:, :k]``."""
+    N = logw.shape[0]
     k = L.shape[1]
-    # 1. prior normaliser (cheap when the weights are uniform, the usual case)
-    uniform = True
+    uniform = True  # cheap path for uniform weights, the usual case
     for i in range(1, N):
         if logw[i] != logw[0]:
             uniform = False
@@ -768,18 +747,16 @@ def bootstrap_step_kernel(particles, logw, F, L, z, Rinv, logdetR, model, sx, sy
         lse0 = logw[0] + math.log(N)
     else:
         lse0 = logsumexp_kernel(logw)
-    # 2. draw the process noise serially into scratch[:, :k]
     for i in range(N):
         for c2 in range(k):
             scratch[i, c2] = rng.standard_normal()
-    # 3. move and weigh
-    d = z.shape[0]
-    c = -0.5 * (d * 1.8378770664093453 + logdetR)
-    if N >= parallel_min:
-        top = _move_weigh_parallel(particles, F, L, scratch, z, Rinv, c, model, sx, sy, logw)
-    else:
-        top = _move_weigh_serial(particles, F, L, scratch, z, Rinv, c, model, sx, sy, logw)
-    # 4. normalise: one exp per particle; logw temporarily holds w_i / w_max
+    return lse0
+
+
+@nb.njit(cache=True)
+def _bootstrap_finish(particles, logw, top, lse0, has_z, rng, ess_threshold, scratch):
+    """Phase 3: normalise (one exp per particle), ESS, evidence, resample."""
+    N, n = particles.shape
     dead = top == -np.inf
     if dead:
         # every particle has zero likelihood: evidence 0, fall back to uniform weights
@@ -788,7 +765,7 @@ def bootstrap_step_kernel(particles, logw, F, L, z, Rinv, logdetR, model, sx, sy
         top = 0.0
     s1 = 0.0
     s2 = 0.0
-    for i in range(N):
+    for i in range(N):  # logw temporarily holds w_i / w_max
         e = math.exp(logw[i] - top)
         logw[i] = e
         s1 += e
@@ -796,7 +773,7 @@ def bootstrap_step_kernel(particles, logw, F, L, z, Rinv, logdetR, model, sx, sy
     ess = s1 * s1 / s2
     if dead:
         log_ev = -np.inf
-    elif d > 0:
+    elif has_z:
         log_ev = top + math.log(s1) - lse0
     else:
         log_ev = 0.0
@@ -819,6 +796,35 @@ def bootstrap_step_kernel(particles, logw, F, L, z, Rinv, logdetR, model, sx, sy
         for i in range(N):
             logw[i] = math.log(logw[i]) - ls1
     return log_ev, ess, resampled
+
+
+@nb.njit(cache=True)
+def bootstrap_step_kernel(particles, logw, F, L, z, Rinv, logdetR, model, sx, sy,
+                          rng, ess_threshold, scratch):
+    """One bootstrap-PF step in place: propagate, weight, normalise, resample.
+
+    ``particles`` ``(N, n)`` and ``logw`` ``(N,)`` are overwritten; ``scratch``
+    is an ``(N, n)`` work array and ``L`` is ``(n, k)`` with ``k <= n``.
+    ``z`` of length 0 means an empty scan (no weighting).  ``model``:
+    :data:`MODEL_POSITION` or :data:`MODEL_RANGE_BEARING`.  Systematic
+    resampling happens when ``ess_threshold >= 1`` or
+    ``ESS < ess_threshold * N``.
+
+    Random draws: ``N * k`` standard normals (particle by particle, the same
+    stream as :func:`propagate_linear_kernel`), then one ``rng.random()`` if
+    resampling.  This kernel is serial and safe to call from other kernels;
+    :func:`bootstrap_step` with ``parallel=True`` runs the same phases with
+    a threaded move-and-weigh pass (identical results).
+
+    Returns ``(log_evidence, ess_before_resampling, resampled)`` where
+    ``log_evidence = log sum_i w_i p(z | x_i)`` with the input weights
+    normalised (0 for an empty scan).
+    """
+    lse0 = _bootstrap_prepare(logw, L, rng, scratch)
+    c = -0.5 * (z.shape[0] * 1.8378770664093453 + logdetR)
+    top = _move_weigh_serial(particles, F, L, scratch, z, Rinv, c, model, sx, sy, logw)
+    return _bootstrap_finish(particles, logw, top, lse0, z.shape[0] > 0, rng, ess_threshold,
+                             scratch)
 
 
 class BootstrapStep(NamedTuple):
@@ -880,7 +886,14 @@ def bootstrap_step(particles, logw, F, L, z, R, rng, model="range_bearing", *,
     elif not (isinstance(scratch, np.ndarray) and scratch.dtype == np.float64
               and scratch.flags.c_contiguous and scratch.shape == X.shape):
         raise ValueError(f"scratch must be a C-contiguous float64 array of shape {X.shape}")
-    log_ev, ess, res = bootstrap_step_kernel(X, lw, F, L, z, Rinv, logdet, code, sx, sy,
-                                             rng, ess_threshold, scratch,
-                                             _PARALLEL_MIN if parallel else _SERIAL)
+    if parallel and N >= _PARALLEL_MIN:
+        # same phases as bootstrap_step_kernel, threaded move-and-weigh pass
+        lse0 = _bootstrap_prepare(lw, L, rng, scratch)
+        c = -0.5 * (z.shape[0] * _LOG_2PI + logdet)
+        top = _move_weigh_parallel(X, F, L, scratch, z, Rinv, c, code, sx, sy, lw)
+        log_ev, ess, res = _bootstrap_finish(X, lw, top, lse0, z.shape[0] > 0, rng,
+                                             ess_threshold, scratch)
+    else:
+        log_ev, ess, res = bootstrap_step_kernel(X, lw, F, L, z, Rinv, logdet, code, sx, sy,
+                                                 rng, ess_threshold, scratch)
     return BootstrapStep(X, lw, float(log_ev), float(ess), bool(res))
