@@ -214,7 +214,7 @@ def render_frame(background, objects, rng, gain=1.0, noise_sd=3.0):
         region[sub_m] = sub_i[sub_m]
         labels[rr0:rr1, cc0:cc1][sub_m] = i + 1
         boxes[i] = (rr0, cc0, rr1, cc1)
-    img += rng.normal(0.0, noise_sd, (H, W))
+    img += noise_sd * rng.standard_normal((H, W), dtype=np.float32)
     img *= gain
     frame = np.clip(np.rint(img), 0, 255).astype(np.uint8)
     return frame, labels, boxes
@@ -222,38 +222,41 @@ def render_frame(background, objects, rng, gain=1.0, noise_sd=3.0):
 
 # ---------------------------------------------------------------- background subtraction
 @nb.njit(cache=True)
-def _vibe_init_kernel(samples, frame, rng):
-    N, H, W = samples.shape
-    for s in range(N):
-        for i in range(H):
-            for j in range(W):
-                di = int(rng.random() * 3.0) - 1
-                dj = int(rng.random() * 3.0) - 1
-                ii = min(max(i + di, 0), H - 1)
-                jj = min(max(j + dj, 0), W - 1)
-                samples[s, i, j] = frame[ii, jj]
+def _vibe_init_kernel(samples, frame, offsets):
+    """Each sample of a pixel is a random 8-neighbour (or itself) of the first
+    frame; ``offsets`` (H, W, N, 2) holds the drawn offsets in {-1, 0, 1}."""
+    H, W, N = samples.shape
+    for i in range(H):
+        for j in range(W):
+            for s in range(N):
+                ii = min(max(i + offsets[i, j, s, 0], 0), H - 1)
+                jj = min(max(j + offsets[i, j, s, 1], 0), W - 1)
+                samples[i, j, s] = frame[ii, jj]
 
 
 @nb.njit(cache=True)
-def _vibe_kernel(samples, frame, radius, min_matches, subsample, rng, out):
-    N, H, W = samples.shape
+def _vibe_kernel(samples, frame, radius, min_matches, subsample, u, rng, out):
+    """One ViBe step; ``u`` (H, W, 2) uniforms decide the two updates (drawn
+    vectorised outside), the rare update draws use ``rng``."""
+    H, W, N = samples.shape
+    p = 1.0 / subsample
     for i in range(H):
         for j in range(W):
             v = frame[i, j]
             count = 0
             for s in range(N):
-                if abs(samples[s, i, j] - v) < radius:
+                if abs(samples[i, j, s] - v) < radius:
                     count += 1
                     if count >= min_matches:
                         break
             if count >= min_matches:
                 out[i, j] = False
-                if int(rng.random() * subsample) == 0:
-                    samples[int(rng.random() * N), i, j] = v
-                if int(rng.random() * subsample) == 0:
+                if u[i, j, 0] < p:
+                    samples[i, j, int(rng.random() * N)] = v
+                if u[i, j, 1] < p:
                     ii = min(max(i + int(rng.random() * 3.0) - 1, 0), H - 1)
                     jj = min(max(j + int(rng.random() * 3.0) - 1, 0), W - 1)
-                    samples[int(rng.random() * N), ii, jj] = v
+                    samples[ii, jj, int(rng.random() * N)] = v
             else:
                 out[i, j] = True
 
@@ -278,16 +281,18 @@ class ViBe:
         if self.min_matches > self.n_samples:
             raise ValueError("min_matches must not exceed n_samples")
         self.subsample = as_int(subsample, "subsample", minimum=1)
-        self.samples = np.empty((self.n_samples,) + first.shape)
-        _vibe_init_kernel(self.samples, first, self.rng)
+        self.samples = np.empty(first.shape + (self.n_samples,))
+        offsets = self.rng.integers(-1, 2, first.shape + (self.n_samples, 2), dtype=np.int8)
+        _vibe_init_kernel(self.samples, first, offsets)
 
     def apply(self, frame):
         """Foreground mask of ``frame`` (bool, same shape); updates the model."""
         frame = as_array(frame, "frame", ndim=2)
-        if frame.shape != self.samples.shape[1:]:
-            raise ValueError(f"frame must have shape {self.samples.shape[1:]}, got {frame.shape}")
+        if frame.shape != self.samples.shape[:2]:
+            raise ValueError(f"frame must have shape {self.samples.shape[:2]}, got {frame.shape}")
         out = np.empty(frame.shape, np.bool_)
-        _vibe_kernel(self.samples, frame, self.radius, self.min_matches, self.subsample,
+        u = self.rng.random(frame.shape + (2,))
+        _vibe_kernel(self.samples, frame, self.radius, self.min_matches, self.subsample, u,
                      self.rng, out)
         return out
 
@@ -319,27 +324,21 @@ _SQUARE = np.ones((3, 3), bool)
 @nb.njit(cache=True)
 def _morph3_kernel(mask, out, dilate):
     """3x3 binary erosion (``dilate=False``) or dilation, outside pixels = 0
-    (scipy.ndimage's default ``border_value=0``)."""
+    (scipy.ndimage's default ``border_value=0``); separable row/column passes."""
     H, W = mask.shape
+    tmp = np.empty((H, W), np.bool_)
     for i in range(H):
         for j in range(W):
-            if dilate:
-                v = False
-                for a in range(max(i - 1, 0), min(i + 2, H)):
-                    for b in range(max(j - 1, 0), min(j + 2, W)):
-                        if mask[a, b]:
-                            v = True
-                out[i, j] = v
-            else:
-                if i == 0 or j == 0 or i == H - 1 or j == W - 1:
-                    out[i, j] = False
-                    continue
-                v = True
-                for a in range(i - 1, i + 2):
-                    for b in range(j - 1, j + 2):
-                        if not mask[a, b]:
-                            v = False
-                out[i, j] = v
+            a = mask[i, j - 1] if j > 0 else False
+            b = mask[i, j]
+            c = mask[i, j + 1] if j < W - 1 else False
+            tmp[i, j] = (a or b or c) if dilate else (a and b and c)
+    for i in range(H):
+        for j in range(W):
+            a = tmp[i - 1, j] if i > 0 else False
+            b = tmp[i, j]
+            c = tmp[i + 1, j] if i < H - 1 else False
+            out[i, j] = (a or b or c) if dilate else (a and b and c)
 
 
 def clean_mask(mask):

@@ -23,7 +23,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-__all__ = ["SceneMetrics", "match_tracks", "scene_metrics", "wilson_interval", "vehicle_mask_iou"]
+__all__ = ["SceneMetrics", "match_tracks", "scene_metrics", "wilson_interval", "vehicle_mask_iou",
+           "SceneTrial", "scene_trial"]
 
 _REPORTED = ("confirmed", "memory")
 
@@ -203,3 +204,30 @@ def vehicle_mask_iou(scene, masks, margin=3):
             c0, c1 = max(cc.min() - margin, 0), cc.max() + margin + 1
             out.append(mask_iou(masks[k][r0:r1, c0:c1], truth[r0:r1, c0:c1]))
     return np.array(out)
+
+
+class SceneTrial(NamedTuple):
+    """One Monte Carlo run of one scene: the vehicles' truth and, per tracker
+    variant, its metrics and per-frame reported track positions."""
+    truth_xy: np.ndarray          # (K, n_vehicles, 2)
+    truth_present: np.ndarray     # (K, n_vehicles)
+    metrics: dict                 # variant label -> SceneMetrics
+    positions: dict               # variant label -> list of (n_k, 2) arrays
+
+
+def scene_trial(rng, scene_name, variants, method="vibe"):
+    """Render ``scene_name`` with ``rng``, segment it once, and run every
+    tracker configuration of ``variants`` (label -> JPDATrackerConfig) on the
+    same detections."""
+    from ..trackers.jpda_tracker import run_jpda_tracker
+    from .feature_scenes import render_scene, segment_scene
+    scene = render_scene(scene_name, rng)
+    dets, _ = segment_scene(scene, method, rng)
+    veh = np.nonzero(scene.is_vehicle)[0]
+    metrics, positions = {}, {}
+    for label, cfg in variants.items():
+        reps = run_jpda_tracker(dets, cfg)
+        metrics[label] = scene_metrics(scene, reps)
+        positions[label] = [np.array([[s.x, s.y] for s in r.tracks if s.status in _REPORTED])
+                            .reshape(-1, 2) for r in reps]
+    return SceneTrial(scene.xy[:, veh], scene.present[:, veh], metrics, positions)

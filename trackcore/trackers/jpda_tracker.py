@@ -34,9 +34,10 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from ..association.gating import mahalanobis_gate
+from ..association.gating import mahalanobis_gate_kernel
 from ..association.jpda import jpda_clusters, jpda_marginals
-from ..association.pda import pda_update
+from ..association.pda import pda_update_kernel
+from ..filters.kalman import cholesky_lower_kernel, kf_predict_kernel
 from ..detection.image import ncc
 from ..models.measurement import position_matrix
 from ..models.motion import cv_process_noise, cv_transition
@@ -176,11 +177,6 @@ class JPDATracker:
         self.next_id += 1
         return t
 
-    def _lik(self, nu, S):
-        Si = np.linalg.inv(S)
-        d2 = np.einsum("ij,jk,ik->i", nu, Si, nu)
-        return np.exp(-0.5 * d2) / (2 * np.pi * math.sqrt(np.linalg.det(S)))
-
     # ------------------------------------------------------------ one frame
     def step(self, detections):
         c = self.cfg
@@ -194,10 +190,15 @@ class JPDATracker:
         xp, Pp, S_all, zp_all = [], [], [], []
         valid_kin = np.zeros((m, T), bool)
         lik = np.zeros((m, T))
+        nx = self.F.shape[0]
+        L = np.zeros((2, 2))
+        gmask = np.zeros(m, np.bool_)
+        d2 = np.empty(m)
         for i, tr in enumerate(self.tracks):
-            x = self.F @ tr.x
-            P = self.F @ tr.P @ self.F.T + self.Q
-            P = 0.5 * (P + P.T)
+            # the tracker validated its inputs; it calls the foundation kernels directly
+            x = np.empty(nx)
+            P = np.empty((nx, nx))
+            kf_predict_kernel(tr.x, tr.P, self.F, self.Q, x, P)
             S = self.H @ P @ self.H.T + self.R
             zpred = self.H @ x
             xp.append(x)
@@ -205,10 +206,13 @@ class JPDATracker:
             S_all.append(S)
             zp_all.append(zpred)
             if m:
-                mask, _ = mahalanobis_gate(z, zpred, S, c.gamma)
-                valid_kin[:, i] = mask
-                if mask.any():
-                    lik[mask, i] = self._lik(z[mask] - zpred, S)
+                if not cholesky_lower_kernel(S, L):
+                    raise ValueError("innovation covariance lost positive definiteness")
+                mahalanobis_gate_kernel(z, zpred, L, c.gamma, -1, gmask, d2)
+                valid_kin[:, i] = gmask
+                if gmask.any():
+                    lik[gmask, i] = np.exp(-0.5 * d2[gmask]) / (
+                        2 * np.pi * L[0, 0] * L[1, 1])
         rho = np.zeros((m, T))
         if c.uses_features:
             for j, i in zip(*np.nonzero(valid_kin)):
@@ -251,10 +255,15 @@ class JPDATracker:
         hit = valid.any(axis=0) if m else np.zeros(T, bool)
         for i, tr in enumerate(self.tracks):
             sel = np.nonzero(valid[:, i])[0]
-            up = pda_update(xp[i], Pp[i], z[sel], zp_all[i], self.H, self.R,
-                            beta[sel + 1, i], float(max(0.0, 1.0 - beta[sel + 1, i].sum())))
+            xo, Po = np.empty(nx), np.empty((nx, nx))
+            ok = pda_update_kernel(xp[i], Pp[i], np.ascontiguousarray(z[sel]), zp_all[i], self.H,
+                                   self.R, np.ascontiguousarray(beta[sel + 1, i]),
+                                   float(max(0.0, 1.0 - beta[sel + 1, i].sum())), -1, xo, Po,
+                                   np.empty(2), np.empty((2, 2)), np.empty((nx, 2)))
+            if not ok:
+                raise ValueError("innovation covariance lost positive definiteness")
             was_memory = tr.status == TrackStatus.MEMORY
-            tr.x, tr.P = up.x, 0.5 * (up.P + up.P.T)
+            tr.x, tr.P = xo, Po
             tr.validated = frozenset(sel.tolist())
             gx, gy = math.sqrt(c.gamma * S_all[i][0, 0]), math.sqrt(c.gamma * S_all[i][1, 1])
             tr.gate = (gx, gy)
