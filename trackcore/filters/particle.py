@@ -516,9 +516,22 @@ def resample_particles(particles, logw, rng, scheme="systematic", n_out=None):
 # measurement log-likelihoods on particle batches
 # --------------------------------------------------------------------------
 def _inv_logdet(R, name="R"):
-    R = as_covariance(R, name, strict=True)
-    L = np.linalg.cholesky(R)
-    Rinv = np.linalg.inv(R)
+    """``(R^-1, log|R|)`` of a symmetric positive definite ``R`` (validated).
+
+    The Cholesky factorisation doubles as the definiteness check (cheaper
+    than an eigendecomposition; this runs once per filter step).
+    """
+    R = as_square_matrix(R, name)
+    scale = max(float(np.max(np.abs(R))), 1e-300) if R.size else 1.0
+    if R.size and np.max(np.abs(R - R.T)) > 1e-8 * scale:
+        raise ValueError(f"{name} must be symmetric")
+    R = 0.5 * (R + R.T)
+    try:
+        L = np.linalg.cholesky(R)
+    except np.linalg.LinAlgError:
+        raise ValueError(f"{name} must be positive definite") from None
+    Linv = np.linalg.inv(L)
+    Rinv = Linv.T @ Linv
     Rinv = 0.5 * (Rinv + Rinv.T)
     return np.ascontiguousarray(Rinv), float(2.0 * np.sum(np.log(np.diag(L))))
 
