@@ -248,6 +248,9 @@ def test_metrics():
     assert tbd_track_lost(e)
     assert not tbd_track_lost(e[:17])
     assert not tbd_track_lost(np.zeros(20))
+    from trackcore.trackers import tbd_loss_onset
+    assert tbd_loss_onset(e) == 17 and tbd_loss_onset(e[:17]) == -1
+    assert tbd_loss_onset(e, consecutive=5) == 5
     est = np.zeros((3, 6))
     tru = np.zeros((3, 6))
     tru[:, 0] = [3.0, 4.0, 0.0]
@@ -314,3 +317,20 @@ def test_run_bad_input():
         direct_particle_log_weights(np.zeros((2, 6)), [[1.0, 2.0, 3.0]], [0.0], [-3.0], 1.0, 1.0, 1e-6)
     with pytest.raises(ValueError, match="errors"):
         tbd_track_lost(np.array([np.nan, 1.0]))
+
+
+def test_error_summary():
+    from trackcore.trackers import tbd_error_summary
+    E = np.full((4, 30), 100.0)
+    E[1, 5:20] = 2000.0   # lost
+    E[2, 0] = 6000.0       # beyond the simulation sphere once, not lost
+    s = tbd_error_summary(E)
+    assert s.lost == 1 and s.beyond_sim == 1  # the lost run stays within 2 km
+    np.testing.assert_allclose(s.per_run, E.mean(axis=1))
+    assert s.mean == pytest.approx(E.mean())
+    assert s.mean_not_lost == pytest.approx(E[[0, 2, 3]].mean())
+    assert s.median_run == pytest.approx(np.median(E.mean(axis=1)))
+    w = tbd_error_summary(E, slice(0, 5))
+    assert w.mean == pytest.approx(E[:, :5].mean()) and w.lost == 1
+    with pytest.raises(ValueError, match="errors"):
+        tbd_error_summary(np.zeros((0, 5)))

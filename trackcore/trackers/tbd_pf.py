@@ -61,6 +61,9 @@ __all__ = [
     "tbd_position_errors",
     "tbd_measurement_errors",
     "tbd_track_lost",
+    "tbd_loss_onset",
+    "TbdErrorSummary",
+    "tbd_error_summary",
 ]
 
 #: method codes accepted by :class:`TbdTrackerConfig`
@@ -686,22 +689,55 @@ def tbd_measurement_errors(positions, offsets, truth, mask=None):
         return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
-def tbd_track_lost(errors, threshold=1000.0, consecutive=10):
-    """True if ``errors`` exceed ``threshold`` for at least ``consecutive`` scans in a row
-    (spec 003 section 5.5: 1 km for 10 scans)."""
+def tbd_loss_onset(errors, threshold=1000.0, consecutive=10):
+    """First scan of the first stretch of at least ``consecutive`` scans with
+    ``errors > threshold`` (spec 003 section 5.5: 1 km for 10 scans), or -1 if none."""
     e = as_array(errors, "errors", ndim=1)
     threshold = as_positive(threshold, "threshold")
     consecutive = as_count(consecutive, "consecutive")
     if consecutive == 0:
-        return True
-    run = 0
+        return 0
     above = e > threshold
-    # longest run of True without a Python loop over scans
     if not above.any():
-        return False
-    padded = np.concatenate([[False], above, [False]])
-    d = np.diff(padded.astype(np.int8))
+        return -1
+    d = np.diff(np.concatenate([[False], above, [False]]).astype(np.int8))
     starts = np.flatnonzero(d == 1)
     ends = np.flatnonzero(d == -1)
-    run = int(np.max(ends - starts))
-    return run >= consecutive
+    long_enough = np.flatnonzero(ends - starts >= consecutive)
+    return int(starts[long_enough[0]]) if long_enough.size else -1
+
+
+def tbd_track_lost(errors, threshold=1000.0, consecutive=10):
+    """True if ``errors`` exceed ``threshold`` for at least ``consecutive`` scans in a row
+    (spec 003 section 5.5: 1 km for 10 scans)."""
+    return tbd_loss_onset(errors, threshold, consecutive) >= 0
+
+
+@dataclass(frozen=True)
+class TbdErrorSummary:
+    """Table 3 style summary of ``E_err`` over runs (errors averaged over a scan window)."""
+    mean: float            # mean over all runs of the per-run window mean (the paper's metric)
+    median_run: float      # median over runs of the per-run window mean
+    lost: int              # runs lost (E_err > 1 km for >= 10 consecutive scans, whole run)
+    mean_not_lost: float   # mean over the runs that were not lost (NaN if all were)
+    beyond_sim: int        # runs whose error ever exceeded the 5-km simulation margin
+    per_run: np.ndarray    # (runs,) per-run window means
+
+
+def tbd_error_summary(errors, window=None, sim_margin=5000.0):
+    """Summarise ``errors (runs, K)`` over ``window`` (a slice of scans, default all).
+
+    Lost runs stay in ``mean`` (as in the paper's metric) and are counted in ``lost``;
+    ``mean_not_lost`` excludes them.  ``beyond_sim`` counts runs that left the sphere in
+    which the clutter was simulated (their later errors are not representative).
+    """
+    E = as_array(errors, "errors", ndim=2)
+    if E.shape[0] == 0 or E.shape[1] == 0:
+        raise ValueError("errors must hold at least one run of at least one scan")
+    sl = slice(None) if window is None else window
+    per_run = E[:, sl].mean(axis=1)
+    lost = np.array([tbd_track_lost(e) for e in E])
+    keep = ~lost
+    return TbdErrorSummary(float(per_run.mean()), float(np.median(per_run)), int(lost.sum()),
+                           float(per_run[keep].mean()) if keep.any() else float("nan"),
+                           int(np.sum(np.max(E, axis=1) > sim_margin)), per_run)
