@@ -313,3 +313,57 @@ def test_property_columns_sum_to_one_and_match_brute_force(m, T, seed, feature):
     np.testing.assert_allclose(beta, ref, atol=1e-12)
     # each measurement is assigned to at most one target in total probability
     assert np.all(beta[1:].sum(axis=1) <= 1 + 1e-12)
+
+
+# ---------------------------------------------------------------- Stone Soup
+def test_matches_stonesoup_jpda_on_shared_inputs():
+    """Stone Soup's JPDA (PDAHypothesiser, P_G = 1) and jpda_marginals agree on
+    the same predicted tracks and detections."""
+    pytest.importorskip("stonesoup")
+    import datetime
+    from stonesoup.dataassociator.probability import JPDA
+    from stonesoup.hypothesiser.probability import PDAHypothesiser
+    from stonesoup.models.measurement.linear import LinearGaussian
+    from stonesoup.models.transition.linear import (CombinedLinearGaussianTransitionModel,
+                                                    ConstantVelocity)
+    from stonesoup.predictor.kalman import KalmanPredictor
+    from stonesoup.types.detection import Detection
+    from stonesoup.types.state import GaussianState
+    from stonesoup.types.track import Track
+    from stonesoup.updater.kalman import KalmanUpdater
+
+    t0 = datetime.datetime(2016, 3, 25)
+    t1 = t0 + datetime.timedelta(seconds=1)
+    tm = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.09), ConstantVelocity(0.09)])
+    mm = LinearGaussian(ndim_state=4, mapping=(0, 2), noise_covar=np.eye(2))
+    predictor, updater = KalmanPredictor(tm), KalmanUpdater(mm)
+    pd, lam = 0.85, 2e-3
+    hyp = PDAHypothesiser(predictor, updater, clutter_spatial_density=lam, prob_detect=pd,
+                          prob_gate=1.0)
+    assoc = JPDA(hyp)
+    rng = np.random.default_rng(21)
+    for _ in range(3):
+        tracks = [Track([GaussianState(np.array([[10.0], [1.0], [20.0], [0.5]]),
+                                       np.diag([2.0, 0.5, 2.0, 0.5]), timestamp=t0)]),
+                  Track([GaussianState(np.array([[13.0], [-1.0], [21.0], [0.0]]),
+                                       np.diag([1.5, 0.4, 1.5, 0.4]), timestamp=t0)])]
+        zs = rng.normal([11.5, 20.8], 2.0, (3, 2))
+        dets = {Detection(z.reshape(2, 1), timestamp=t1, measurement_model=mm) for z in zs}
+        out = assoc.associate(tracks, dets, t1)
+        det_list = sorted(dets, key=lambda d: tuple(d.state_vector.ravel()))
+        lik = np.zeros((3, 2))
+        ss = np.zeros((4, 2))
+        for t, trk in enumerate(tracks):
+            mp = updater.predict_measurement(predictor.predict(trk, timestamp=t1))
+            S = np.asarray(mp.covar, float)
+            for j, d in enumerate(det_list):
+                nu = np.asarray(d.state_vector, float).ravel() - np.asarray(mp.state_vector, float).ravel()
+                lik[j, t] = np.exp(-0.5 * nu @ np.linalg.solve(S, nu)) / (2 * np.pi * np.sqrt(np.linalg.det(S)))
+            for h in out[trk]:
+                p = float(h.probability)
+                if h.measurement is None or not h:
+                    ss[0, t] += p
+                else:
+                    ss[det_list.index(h.measurement) + 1, t] += p
+        ours, _ = jpda_marginals(lik, np.ones((3, 2), bool), pd, lam)
+        np.testing.assert_allclose(ours, ss, atol=1e-9)
