@@ -142,11 +142,10 @@ def test_phd_empty_and_deterministic():
     np.testing.assert_array_equal(a.aux, b.aux)
 
 
-def test_phd_update_matches_direct_formula_one_scan():
-    # two scans: births from scan 0 meet the update at scan 1; check the mass
-    # against a direct numpy evaluation is impractical (random births), so
-    # check the PHD mass balance: with P_D = 1 - 1e-9 and one measurement far
-    # from every particle, the mass after the update is ~0
+def test_phd_far_measurement_removes_birth_mass():
+    # births from scan 0 meet the update at scan 1: with P_D = 1 - 1e-9 and a
+    # measurement far from every birth particle, the missed-detection factor
+    # 1 - P_D removes (almost) all of the birth mass
     cfg = SmcPhdConfig(pd=1 - 1e-9, clutter_density_xy=3e-8, n_per_target=100, n_birth=100)
     z = np.array([[5000.0, 0.0], [5000.0, 2.0]])
     out = smc_phd_run(z, np.array([0, 1, 2]), cfg, np.random.default_rng(0))
@@ -156,11 +155,16 @@ def test_phd_update_matches_direct_formula_one_scan():
 def test_kmeans_kernel_two_blobs():
     rng = np.random.default_rng(0)
     X = np.vstack([rng.normal([0, 0, 1, 0], 10, (500, 4)), rng.normal([5000, 0, -1, 0], 10, (500, 4))])
+    X = np.vstack([X, [[-9000.0, 9000.0, 0, 0]]])      # a stray particle is ignored
     cen = np.zeros((2, 4))
-    lab = np.zeros(1000, dtype=np.int64)
-    kmeans_extract_kernel(X, 2, np.zeros((1, 4)), 0, 10, cen, lab)
+    lab = np.zeros(1001, dtype=np.int64)
+    # candidates: a stale centre (no particles near it) and two measurements
+    cand = np.array([[0.0, 8000, 0, 0], [300.0, 100, 0, 0], [4700.0, -100, 0, 0]])
+    n = kmeans_extract_kernel(X, 2, cand, 3, 10, 1000.0 ** 2, cen, lab)
+    assert n == 2
     xs = sorted(cen[:, 0])
     assert abs(xs[0]) < 5 and abs(xs[1] - 5000) < 5
+    assert lab[-1] == -1
 
 
 def test_phd_bad_input():

@@ -11,13 +11,15 @@ update
 with ``g = N(z; h(x), R)`` in polar coordinates and ``kappa(z) = lambda_xy
 r_z`` the clutter intensity per (m rad); resample ``L = max(N round(N_hat),
 N)`` particles systematically with weights ``N_hat / L`` (mass preserving);
-extract ``round(N_hat)`` point estimates by k-means over particle positions.
+extract up to ``round(N_hat)`` point estimates by gated k-means over particle
+positions, initialised from the previous centres and then from the current
+measurements in decreasing order of their PHD update mass.
 
 Choices (spec section 6.2, documented in the book): births are
 measurement-driven -- ``B_k`` particles split equally over the measurements
 of the previous scan, position from ``z + N(0, R)`` converted to Cartesian,
 velocity ``N(0, velocity_std^2 I)``, then propagated one step; the filter
-starts empty; k-means is deterministic, seeded from the previous centres.
+starts empty; k-means is deterministic (see :func:`kmeans_extract_kernel`).
 The whole run is one numba kernel.
 """
 from __future__ import annotations
@@ -41,7 +43,9 @@ class SmcPhdConfig:
     ``sigma_r``, ``sigma_theta``, ``sigma_a``, ``a_m``, ``n_per_target = 1000``
     (N), ``n_birth = 500`` (B_k), ``birth_mass = 0.2`` (P_birth, interpretation
     flagged in the spec).  Choices: ``p_survival = 0.99``, ``velocity_std =
-    1.5`` m/s, ``mode_tpm``, ``kmeans_iterations = 10``, ``max_estimates``."""
+    1.5`` m/s, ``mode_tpm``, ``kmeans_iterations = 10``,
+    ``extraction_radius = 1000`` m (particles farther than this from every
+    k-means centre are ignored in the means), ``max_estimates``."""
     pd: float
     clutter_density_xy: float
     T: float = 10.0
@@ -56,69 +60,78 @@ class SmcPhdConfig:
     velocity_std: float = 1.5
     mode_tpm: tuple = ((0.90, 0.05, 0.05), (0.10, 0.90, 0.0), (0.10, 0.0, 0.90))
     kmeans_iterations: int = 10
+    extraction_radius: float = 1000.0
     max_estimates: int = 32
     max_particles: int = 40000
 
 
 @nb.njit(cache=True)
-def kmeans_extract_kernel(X, n_clusters, prev, n_prev, iters, centres, labels):
-    """Deterministic k-means of particle rows ``X`` (L, 4) on positions.
+def kmeans_extract_kernel(X, n_clusters, cand, n_cand, iters, gate2, centres, labels):
+    """Deterministic gated k-means of particle rows ``X`` (L, 4) on positions.
 
-    Initial centres: the first ``min(n_prev, n_clusters)`` rows of ``prev``,
-    then farthest-point additions.  Writes ``centres`` (n_clusters, 4: the
-    cluster means of all four state components) and ``labels``."""
+    Initial centres are taken in order from the candidate rows ``cand[:n_cand]``
+    (the caller passes the previous centres first, then the current
+    measurements by decreasing PHD update mass), skipping candidates within
+    ``sqrt(gate2) / 3`` of a chosen one.  Lloyd iterations assign each particle
+    to its nearest centre if within ``sqrt(gate2)`` (others are ignored, so
+    stray birth particles do not drag the means); a centre left without
+    particles is replaced by the next unused candidate.  Writes ``centres``
+    (n_clusters, 4: cluster means of all four components) and ``labels``
+    (-1 for ignored particles); returns the number of centres found."""
     L = X.shape[0]
     if n_clusters == 0 or L == 0:
-        return
+        return 0
+    sep2 = gate2 / 9.0
     nc = 0
-    for c in range(min(n_prev, n_clusters)):
-        for a in range(4):
-            centres[c, a] = prev[c, a]
-        nc += 1
-    while nc < n_clusters:
-        best = -1.0
-        bi = 0
+    nxt = 0
+    while nc < n_clusters and nxt < n_cand:
+        ok = True
+        for c in range(nc):
+            dx = cand[nxt, 0] - centres[c, 0]
+            dy = cand[nxt, 1] - centres[c, 1]
+            if dx * dx + dy * dy < sep2:
+                ok = False
+                break
+        if ok:
+            for a in range(4):
+                centres[nc, a] = cand[nxt, a]
+            nc += 1
+        nxt += 1
+    if nc == 0:
+        return 0
+    sums = np.zeros((nc, 4))
+    cnt = np.zeros(nc)
+    for _ in range(iters):
+        for c in range(nc):
+            cnt[c] = 0.0
+            for a in range(4):
+                sums[c, a] = 0.0
         for i in range(L):
             dmin = 1e300
+            bc = -1
             for c in range(nc):
                 dx = X[i, 0] - centres[c, 0]
                 dy = X[i, 1] - centres[c, 1]
                 d = dx * dx + dy * dy
                 if d < dmin:
                     dmin = d
-            if nc == 0:
-                dmin = 0.0 if i > 0 else 1.0
-            if dmin > best:
-                best = dmin
-                bi = i
-        for a in range(4):
-            centres[nc, a] = X[bi, a]
-        nc += 1
-    sums = np.zeros((n_clusters, 4))
-    cnt = np.zeros(n_clusters)
-    for _ in range(iters):
-        for c in range(n_clusters):
-            cnt[c] = 0.0
-            for a in range(4):
-                sums[c, a] = 0.0
-        for i in range(L):
-            dmin = 1e300
-            bc = 0
-            for c in range(n_clusters):
-                dx = X[i, 0] - centres[c, 0]
-                dy = X[i, 1] - centres[c, 1]
-                d = dx * dx + dy * dy
-                if d < dmin:
-                    dmin = d
                     bc = c
+            if dmin > gate2:
+                bc = -1
             labels[i] = bc
-            cnt[bc] += 1.0
-            for a in range(4):
-                sums[bc, a] += X[i, a]
-        for c in range(n_clusters):
+            if bc >= 0:
+                cnt[bc] += 1.0
+                for a in range(4):
+                    sums[bc, a] += X[i, a]
+        for c in range(nc):
             if cnt[c] > 0:
                 for a in range(4):
                     centres[c, a] = sums[c, a] / cnt[c]
+            elif nxt < n_cand:
+                for a in range(4):
+                    centres[c, a] = cand[nxt, a]
+                nxt += 1
+    return nc
 
 
 @nb.njit(cache=True)
@@ -129,6 +142,7 @@ def _phd_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_n, out
     B = int(prm[9])
     iters = int(prm[10])
     Lmax = int(prm[11])
+    gate2 = prm[12] * prm[12]
     C = out_est.shape[1]
     K = off.shape[0] - 1
     cap = Lmax + B
@@ -181,6 +195,7 @@ def _phd_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_n, out
             hr[i] = math.sqrt(X[i, 0] * X[i, 0] + X[i, 1] * X[i, 1])
             hb[i] = math.atan2(X[i, 1], X[i, 0])
             fac[i] = 1.0 - pd
+        zmass = np.zeros(m)
         for jj in range(m):
             j = a0 + jj
             zr, zb = Z[j, 0], Z[j, 1]
@@ -199,6 +214,7 @@ def _phd_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_n, out
             den = kap + Cz
             if Cz <= 0.0:
                 continue
+            zmass[jj] = Cz / den
             for i in range(L):
                 dr = zr - hr[i]
                 d2 = dr * dr * i00
@@ -244,17 +260,25 @@ def _phd_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_n, out
         if nr > C:
             nr = C
         out_count[k] = nr
+        nfound = 0
         if nr > 0 and L > 0:
+            cand = np.zeros((n_prev + m, 4))
+            for c in range(n_prev):
+                for a in range(4):
+                    cand[c, a] = prev[c, a]
+            order = np.argsort(-zmass)
+            for q in range(m):
+                j = a0 + order[q]
+                cand[n_prev + q, 0] = Z[j, 0] * math.cos(Z[j, 1])
+                cand[n_prev + q, 1] = Z[j, 0] * math.sin(Z[j, 1])
             cen = np.zeros((nr, 4))
-            kmeans_extract_kernel(X[:L], nr, prev, n_prev, iters, cen, labels)
-            for c in range(nr):
+            nfound = kmeans_extract_kernel(X[:L], nr, cand, n_prev + m, iters, gate2, cen, labels)
+            for c in range(nfound):
                 for a in range(4):
                     out_est[k, c, a] = cen[c, a]
                     prev[c, a] = cen[c, a]
-            n_prev = nr
-        else:
-            n_prev = 0
-        out_n[k] = nr
+        n_prev = nfound
+        out_n[k] = nfound
 
 
 def smc_phd_run(z, offsets, config: SmcPhdConfig, rng) -> TrackerRun:
@@ -262,7 +286,8 @@ def smc_phd_run(z, offsets, config: SmcPhdConfig, rng) -> TrackerRun:
 
     ``z`` ``(M, 2)`` range-bearing measurements of all scans concatenated,
     ``offsets`` ``(K + 1,)``.  Returns a :class:`TrackerRun` whose ``count``
-    is ``round(N_hat)``, ``estimates`` the k-means centres (``ids`` are -1:
+    is ``round(N_hat)``, ``estimates`` the k-means centres (``n_estimates`` of them,
+    at most ``count``; ``ids`` are -1:
     the PHD has no track identities) and ``aux`` the total mass ``N_hat``.
     """
     if not isinstance(config, SmcPhdConfig):
@@ -289,7 +314,7 @@ def smc_phd_run(z, offsets, config: SmcPhdConfig, rng) -> TrackerRun:
     R = np.diag([cfg.sigma_r ** 2, cfg.sigma_theta ** 2])
     prm = np.array([cfg.pd, cfg.clutter_density_xy, cfg.T, cfg.sigma_a, cfg.a_m, cfg.p_survival,
                     cfg.birth_mass, cfg.velocity_std, float(Nt), float(B),
-                    float(cfg.kmeans_iterations), float(Lmax)])
+                    float(cfg.kmeans_iterations), float(Lmax), float(cfg.extraction_radius)])
     K = off.shape[0] - 1
     C = as_int(cfg.max_estimates, "config.max_estimates", minimum=1)
     count = np.zeros(K, dtype=np.int64)
