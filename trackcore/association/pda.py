@@ -27,7 +27,6 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-from ..core.logmath import logsumexp_kernel
 from ..core.validation import (as_array, as_covariance, as_int, as_matrix, as_measurements,
                                as_nonnegative, as_positive, as_probability, as_scalar, as_vector)
 from ..filters.kalman import kf_update_kernel

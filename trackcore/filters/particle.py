@@ -34,6 +34,7 @@ import numpy as np
 from ..core.logmath import logsumexp_kernel
 from ..core.validation import (as_array, as_covariance, as_int, as_matrix, as_rng,
                                as_scalar, as_square_matrix, as_vector)
+from ..models.measurement import wrap_angle_kernel
 
 __all__ = [
     "noise_factor",
@@ -66,7 +67,6 @@ __all__ = [
     "weighted_mean_cov_kernel",
 ]
 
-_TWO_PI = 2.0 * math.pi
 _LOG_2PI = math.log(2.0 * math.pi)
 
 #: measurement-model codes for :func:`bootstrap_step_kernel`
@@ -91,14 +91,6 @@ _PARALLEL_MIN = 20000  # threads only for N >= this, and only on request
 # --------------------------------------------------------------------------
 # small helpers
 # --------------------------------------------------------------------------
-@nb.njit(cache=True, inline="always")
-def _wrap(a):
-    """Wrap an angle to (-pi, pi]."""
-    if -math.pi < a <= math.pi:
-        return a
-    return math.pi - ((math.pi - a) % _TWO_PI)
-
-
 def noise_factor(Q, name: str = "Q", rtol: float = 1e-12):
     """A factor ``L`` (``(n, k)``, ``k = rank Q``) with ``Q = L L^T``.
 
@@ -556,7 +548,7 @@ def _ll_range_bearing_one(particles, i, z, Rinv, c, sx, sy):
     r0 = z[0] - math.sqrt(dx * dx + dy * dy)
     r1 = z[1] - math.atan2(dy, dx)
     if not (-math.pi < r1 <= math.pi):
-        r1 = math.pi - ((math.pi - r1) % _TWO_PI)
+        r1 = wrap_angle_kernel(r1)
     return c - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
                       + Rinv[1, 1] * r1 * r1)
 
