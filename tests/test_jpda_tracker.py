@@ -245,3 +245,18 @@ def test_vehicle_mask_iou_perfect_and_empty():
     v = vehicle_mask_iou(sc, truth)
     assert len(v) == sc.visible.sum() and np.allclose(v, 1.0)
     assert np.all(vehicle_mask_iou(sc, np.zeros_like(truth)) == 0.0)
+
+
+def test_crossing_detections_geometry_and_lr_variant():
+    import math
+    from trackcore.scenarios.feature_scenes import crossing_detections
+    dets_, sc = crossing_detections(np.random.default_rng(4), heading_b=math.radians(20),
+                                    min_sep=3.0, pd=1.0, clutter_rate=0.0)
+    d = np.hypot(*(sc.xy[:, 0] - sc.xy[:, 1]).T)
+    assert np.argmin(d) == sc.conflict_frame and d.min() == pytest.approx(3.0)
+    assert all(len(x.z) == 2 and len(x.masks) == 2 for x in dets_)
+    cfg = JPDATrackerConfig(variant="FJPDA", feature_lr=(20.0, 1.5, 5.0, 4.0))
+    reps = run_jpda_tracker(dets_[:12], cfg)
+    assert sum(s.status == "confirmed" for s in reps[-1].tracks) >= 1
+    with pytest.raises(ValueError, match="feature_lr"):
+        JPDATrackerConfig(feature_lr=(1.0, 2.0))

@@ -36,9 +36,9 @@ import numpy as np
 from scipy import ndimage
 
 from ..core.validation import as_rng
-from ..detection.image import (FRAME_SHAPE, RunningAverage, ViBe, bar_sprite, clean_mask,
-                               detect_blobs, foliage_sprite, render_frame, rotate_sprite,
-                               terrain, vehicle_sprite)
+from ..detection.image import (FRAME_SHAPE, ImageDetections, RunningAverage, ViBe, bar_sprite,
+                               clean_mask, detect_blobs, foliage_sprite, render_frame,
+                               rotate_sprite, terrain, vehicle_sprite)
 
 __all__ = [
     "SCENES",
@@ -48,6 +48,7 @@ __all__ = [
     "segment_scene",
     "scene_layout",
     "fig3_patches",
+    "crossing_detections",
 ]
 
 N_WARMUP = 10
@@ -289,3 +290,64 @@ def fig3_patches(rng, method="vibe", shift=(1, -2)):
         out[f"grey_{tag}"] = [det.greys[j] for j in order]
         out[f"mask_{tag}"] = [det.masks[j] for j in order]
     return out
+
+
+def _jitter_mask(M, rng, p_flip):
+    """Flip boundary pixels of a mask with probability ``p_flip`` (segmentation noise)."""
+    inner = ndimage.binary_erosion(M)
+    outer = ndimage.binary_dilation(M)
+    boundary = outer & ~inner
+    flip = boundary & (rng.random(M.shape) < p_flip)
+    out = np.pad(M, 1)
+    fl = np.pad(flip, 1)
+    b = ndimage.binary_dilation(out) & ~ndimage.binary_erosion(out)
+    out = np.where(b & fl, ~out, out)
+    return out
+
+
+def crossing_detections(rng, heading_b=math.radians(20.0), kind_a="van", kind_b="sedan",
+                        speed_a=2.5, speed_b=2.5, min_sep=3.0, n_frames=60, conflict=30,
+                        pd=0.9, clutter_rate=1.0, noise_sd=1.0, p_flip=0.2, window=120.0):
+    """Measurement-level crossing without rendering (an extension): vehicle A
+    moves along +x, vehicle B along ``heading_b``; their distance is smallest,
+    ``min_sep`` px, at frame ``conflict`` (B is offset from A perpendicular to
+    the relative velocity).  Each vehicle is
+    detected with probability ``pd`` at its position plus N(0, noise_sd^2)
+    noise, with its sprite mask whose boundary pixels flip with probability
+    ``p_flip``; Poisson(``clutter_rate``) foliage blobs per frame fall
+    uniformly in a ``window`` x ``window`` square around the conflict point.
+
+    Returns ``(detections, scene)``: a list of :class:`ImageDetections` and a
+    :class:`FeatureScene` (no frames) holding the truth for
+    :func:`trackcore.scenarios.scene_metrics`.
+    """
+    rng = as_rng(rng)
+    Ma = vehicle_sprite(kind_a)[1]
+    Mb = rotate_sprite(*vehicle_sprite(kind_b), heading_b)[1]
+    c0 = np.array([160.0, 120.0])
+    xy = np.zeros((n_frames, 2, 2))
+    va = np.array([speed_a, 0.0])
+    vb = speed_b * np.array([math.cos(heading_b), -math.sin(heading_b)])   # image y points down
+    vrel = vb - va
+    perp = np.array([-vrel[1], vrel[0]]) / np.hypot(*vrel)
+    for k in range(n_frames):
+        xy[k, 0] = c0 + va * (k - conflict)
+        xy[k, 1] = c0 + min_sep * perp + vb * (k - conflict)
+    dets = []
+    for k in range(n_frames):
+        zs, masks = [], []
+        for i, M in ((0, Ma), (1, Mb)):
+            if rng.random() < pd:
+                zs.append(xy[k, i] + rng.normal(0.0, noise_sd, 2))
+                masks.append(_jitter_mask(M, rng, p_flip))
+        for _ in range(rng.poisson(clutter_rate)):
+            zs.append(c0 + rng.uniform(-window / 2, window / 2, 2))
+            masks.append(foliage_sprite(rng)[1])
+        z = np.array(zs, float).reshape(-1, 2)
+        dets.append(ImageDetections(z, np.zeros((len(z), 4), np.int64),
+                                    np.zeros(len(z), np.int64), masks, masks))
+    present = np.ones((n_frames, 2), bool)
+    scene = FeatureScene("crossing", np.zeros((0, 1, 1), np.uint8), np.zeros((0, 1, 1), np.int8),
+                         xy, present, present, ("A", "B"), np.array([True, True]), conflict,
+                         (0, 1))
+    return dets, scene

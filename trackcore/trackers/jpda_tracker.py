@@ -33,6 +33,7 @@ from typing import NamedTuple
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
+from scipy.stats import beta as beta_dist
 
 from ..association.gating import mahalanobis_gate_kernel
 from ..association.jpda import jpda_clusters, jpda_marginals
@@ -81,6 +82,8 @@ class JPDATrackerConfig:
     q_rw: float = 4.0               # random-walk position variance per frame, px^2
     template_update: bool = True
     tsi_feature: bool = False       # ablation: TSI pairs need rho(z_p, z_c) >= c_I
+    feature_lr: tuple | None = None  # (a1, b1, a0, b0): FJPDA weights by the Beta likelihood
+                                     # ratio g1(rho)/g0(rho) instead of rho (extension)
 
     def __post_init__(self):
         if self.variant not in VARIANTS:
@@ -95,6 +98,9 @@ class JPDATrackerConfig:
             raise ValueError(f"pd must be a probability in [0, 1], got {self.pd}")
         if not -1.0 <= self.c_I <= 1.0:
             raise ValueError(f"c_I must lie in [-1, 1], got {self.c_I}")
+        if self.feature_lr is not None and (len(self.feature_lr) != 4
+                                            or min(self.feature_lr) <= 0):
+            raise ValueError("feature_lr must be four positive Beta parameters (a1, b1, a0, b0)")
         if int(self.dup_frames) != self.dup_frames or self.dup_frames < 1:
             raise ValueError(f"dup_frames must be a positive integer, got {self.dup_frames}")
 
@@ -243,7 +249,12 @@ class JPDATracker:
                     continue
                 sub_valid = valid[np.ix_(mea, trk)]
                 sub_lik = lik[np.ix_(mea, trk)]
-                if c.variant == "FJPDA":
+                if c.variant == "FJPDA" and c.feature_lr is not None:
+                    r = np.clip(rho[np.ix_(mea, trk)], 1e-6, 1 - 1e-6)
+                    a1, b1, a0, b0 = c.feature_lr
+                    lr = np.exp(beta_dist.logpdf(r, a1, b1) - beta_dist.logpdf(r, a0, b0))
+                    b, n = jpda_marginals(sub_lik * lr, sub_valid, c.pd, c.lam)
+                elif c.variant == "FJPDA":
                     b, n = jpda_marginals(sub_lik, valid_kin[np.ix_(mea, trk)], c.pd, c.lam,
                                           rho=rho[np.ix_(mea, trk)], c_I=c.c_I)
                 else:
