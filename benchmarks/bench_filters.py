@@ -52,6 +52,35 @@ def _filterpy_kf(zs, out):
             out[i, k] = kf.x
 
 
+def _stonesoup_kf(zs, out):
+    """Stone Soup KalmanPredictor / KalmanUpdater, one Track per run (state order
+    [x, vx, y, vy], converted back)."""
+    import datetime
+
+    from stonesoup.models.measurement.linear import LinearGaussian
+    from stonesoup.models.transition.linear import (CombinedLinearGaussianTransitionModel,
+                                                    ConstantVelocity)
+    from stonesoup.predictor.kalman import KalmanPredictor
+    from stonesoup.types.detection import Detection
+    from stonesoup.types.hypothesis import SingleHypothesis
+    from stonesoup.types.state import GaussianState
+    from stonesoup.updater.kalman import KalmanUpdater
+
+    perm = [0, 2, 1, 3]
+    tm = CombinedLinearGaussianTransitionModel([ConstantVelocity(1.0), ConstantVelocity(1.0)])
+    mm = LinearGaussian(4, (0, 2), R)
+    predictor, updater = KalmanPredictor(tm), KalmanUpdater(mm)
+    t0 = datetime.datetime(2026, 1, 1)
+    for i in range(zs.shape[0]):
+        state = GaussianState(x0[perm].reshape(-1, 1), P0[np.ix_(perm, perm)], timestamp=t0)
+        for k in range(zs.shape[1]):
+            ts = t0 + datetime.timedelta(seconds=T * (k + 1))
+            pred = predictor.predict(state, timestamp=ts)
+            det = Detection(zs[i, k].reshape(-1, 1), timestamp=ts, measurement_model=mm)
+            state = updater.update(SingleHypothesis(pred, det))
+            out[i, k] = np.asarray(state.state_vector, dtype=float).ravel()[perm]
+
+
 def bench_kf(n_runs: int = 1000, n_steps: int = 100, blocks: int = 5) -> list[dict]:
     """Three trackcore paths against filterpy on the same measurements:
 
@@ -86,6 +115,21 @@ def bench_kf(n_runs: int = 1000, n_steps: int = 100, blocks: int = 5) -> list[di
             w_peer.append(sw.wall / ((sl.stop - sl.start) * n_steps))
     if not np.array_equal(np.asarray(ours), batch.xs):
         raise AssertionError("KF: kalman_filter_batch differs from kalman_filter_run")
+    # Stone Soup (about 20x slower than filterpy): the first ss_runs runs only.  Its
+    # ConstantVelocity model is CWNA, so the batch is re-run with the same Q for the check.
+    ss_runs = 20
+    Q_ss = cv_process_noise(T, 1.0, kind="cwna")
+    ref = kalman_filter_batch(zs[:ss_runs], x0, P0, F, Q_ss, H, R).xs
+    ss = np.empty((ss_runs, n_steps, 4))
+    t_ss, w_ss = [], []
+    for _ in range(3):
+        with Stopwatch() as sw:
+            _stonesoup_kf(zs[:ss_runs], ss)
+        t_ss.append(sw.cpu / (ss_runs * n_steps))
+        w_ss.append(sw.wall / (ss_runs * n_steps))
+    diff_ss = float(np.max(np.abs(ref - ss)))
+    if not diff_ss < 1e-9:
+        raise AssertionError(f"KF: trackcore and Stone Soup differ by {diff_ss:g}")
     diff = float(np.max(np.abs(batch.xs - peer)))
     if not diff < 1e-9:
         raise AssertionError(f"KF: trackcore and filterpy differ by {diff:g}")
@@ -95,7 +139,10 @@ def bench_kf(n_runs: int = 1000, n_steps: int = 100, blocks: int = 5) -> list[di
             record("kf_cv4", "trackcore", 4, median(t_run), trials=t_run, wall=w_run,
                    api="kalman_filter_run(zs[i], ...) per run", **common),
             record("kf_cv4", "filterpy", 4, median(t_peer), trials=t_peer, wall=w_peer,
-                   api="KalmanFilter predict(); update(z) per step", **common)]
+                   api="KalmanFilter predict(); update(z) per step", **common),
+            record("kf_cv4", "stonesoup", 4, median(t_ss), trials=t_ss, wall=w_ss,
+                   api="KalmanPredictor.predict; KalmanUpdater.update per step (CWNA Q)",
+                   max_abs_diff_vs_trackcore=diff_ss, runs=ss_runs, steps=n_steps)]
 
 
 def _imm_models():
