@@ -22,7 +22,8 @@ from trackcore.detection import (log_marcum_detection_probability, log_marcum_mi
                                  log_marcum_q1, log_marcum_q1_complement, log_marcum_q1_pair_kernel,
                                  marcum_detection_probability, marcum_miss_probability, marcum_q1,
                                  marcum_q1_complement, square_law_threshold,
-                                 swerling1_detection_probability, swerling1_miss_probability)
+                                 swerling1_detection_probability, swerling1_miss_probability,
+                                 rician_log_likelihood_ratio)
 
 
 # ----------------------------------------------------------------------------- reference
@@ -236,3 +237,22 @@ def test_bad_a_b():
         marcum_q1(None, 1.0)
     with pytest.raises(ValueError, match="pfa"):
         square_law_threshold(0.0)
+
+
+def test_rician_likelihood_ratio():
+    zeta = np.array([0.0, 0.5, 3.0, 30.0, 2000.0])
+    S = 4.0
+    want = np.log(special.i0(2 * np.sqrt(S * zeta[:4]))) - S
+    np.testing.assert_allclose(rician_log_likelihood_ratio(zeta[:4], S), want, rtol=1e-13)
+    assert np.isfinite(rician_log_likelihood_ratio(2000.0, S))   # no overflow
+    # a likelihood ratio averages to 1 under the noise density e^{-zeta}
+    f = lambda z: np.exp(rician_log_likelihood_ratio(z, S) - z)  # noqa: E731
+    assert integrate.quad(f, 0.0, np.inf)[0] == pytest.approx(1.0, rel=1e-10)
+    # its tail above tau integrates to P_D (the p_1 mass above the threshold)
+    tau = 10 ** 0.5
+    assert integrate.quad(f, tau, np.inf)[0] == pytest.approx(
+        marcum_detection_probability(S, np.exp(-tau)), rel=1e-9)
+    with pytest.raises(ValueError, match="zeta"):
+        rician_log_likelihood_ratio(-1.0, S)
+    with pytest.raises(ValueError, match="snr"):
+        rician_log_likelihood_ratio(1.0, -S)

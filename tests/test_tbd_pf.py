@@ -153,8 +153,7 @@ def test_trackers_follow_a_clean_target(method):
     truth = straight_track(40)
     rng = np.random.default_rng(6)
     scans = clean_scans(truth, rng)
-    cfg = TbdTrackerConfig(method=method, n_particles=400, processing_radius=2000.0,
-                           clutter_density=1e-3)
+    cfg = TbdTrackerConfig(method=method, n_particles=400, processing_radius=2000.0)
     res = run_tbd_tracker(scans, truth[0] + [200, -100, 50, 10, -5, 0], P0, rng, cfg)
     e = tbd_position_errors(res.estimates, truth)
     assert np.mean(e[10:]) < 120.0

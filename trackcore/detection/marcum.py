@@ -67,6 +67,7 @@ __all__ = [
     "swerling1_detection_probability",
     "swerling1_miss_probability",
     "square_law_threshold",
+    "rician_log_likelihood_ratio",
 ]
 
 _NEG_INF = -np.inf
@@ -333,3 +334,23 @@ def square_law_threshold(pfa):
         raise ValueError("pfa must lie in the open interval (0, 1)")
     out = -np.log(P)
     return float(out) if out.shape == () else out
+
+
+def rician_log_likelihood_ratio(zeta, snr):
+    """``ln(p_1(ζ | S) / p_0(ζ)) = ln I0(2 sqrt(S ζ)) - S`` of the square-law statistic.
+
+    ``p_0(ζ) = e^{-ζ}`` (noise, ``CN(0, 1)``) and ``p_1(ζ | S) = e^{-(ζ + S)} I0(2 sqrt(S ζ))``
+    (non-fluctuating target of linear SNR ``S``).  Computed with the scaled Bessel function,
+    so it does not overflow.  Divide by ``P_D / P_fa`` for the densities truncated at a
+    threshold.
+    """
+    from scipy.special import i0e
+    z = _array(zeta, "zeta")
+    if z.size and np.any(z < 0):
+        raise ValueError("zeta must be non-negative")
+    S = _array(snr, "snr")
+    if S.size and np.any(S < 0):
+        raise ValueError("snr must be a non-negative linear power ratio (not dB)")
+    x = 2.0 * np.sqrt(S * z)
+    out = np.log(i0e(x)) + x - S
+    return float(out) if np.shape(out) == () else out

@@ -40,7 +40,8 @@ from ..core.logmath import logsumexp_kernel
 from ..core.validation import (as_array, as_count, as_covariance, as_int, as_nonnegative,
                                as_positive, as_probability, as_rng, as_vector)
 from ..detection.marcum import (log_marcum_detection_probability,
-                                log_marcum_detection_probability_scalar_kernel)
+                                log_marcum_detection_probability_scalar_kernel,
+                                marcum_detection_probability, rician_log_likelihood_ratio)
 from ..filters.kalman import kf_predict_kernel, kf_update_kernel
 from ..filters.particle import (noise_factor, propagate_linear_kernel,
                                 systematic_resample_kernel)
@@ -236,23 +237,24 @@ def _direct_loglik_kernel(particles, idx, m, pos, rr, lpd, sig_r, sig_v, tmp, ou
 
 
 @nb.njit(cache=True)
-def _pda_loglik_kernel(particles, idx, m, pos, rr, logla, pd, clutter_density,
+def _pda_loglik_kernel(particles, idx, m, pos, rr, logla, log_pd, log_miss, log_rho,
                        sig_range, sig_angle, sig_rr, tmp, out):
-    """Extension "P": ``log(1 - P_D + (P_D/λ) Σ_j ℓ_a,j N(z_j; h(s^i), R))``.
+    """Extension "P": ``log(1 - P_D + (P_D / λ_i) Σ_j ℓ_j N(z_j; h(s^i), R))``.
 
     The measurement model is (r, az, el, ṙ) with independent Gaussian errors; the
-    Cartesian detection is converted back to spherical coordinates (exactly, since
-    the simulator drew its noise there).  ``logla`` is the log amplitude likelihood ratio
-    and ``clutter_density`` the false-alarm density in (r, az, el, ṙ) space.
+    Cartesian detection is converted back to spherical coordinates (exactly, since the
+    simulator drew its noise there).  ``logla[j]`` is the log likelihood ratio of the
+    *thresholded* amplitude densities; the false-alarm density in (r, az, el, ṙ) space at
+    the particle is ``λ_i = ρ r_i² cos(el_i)`` with ``ρ`` (``log_rho``) the Cartesian
+    density per m³ per (m/s) of Doppler.
     """
     N = particles.shape[0]
     c = -2.0 * _LOG_2PI - math.log(sig_range) - 2.0 * math.log(sig_angle) - math.log(sig_rr)
-    log_pd_lam = math.log(pd) - math.log(clutter_density)
-    log_miss = math.log1p(-pd)
     for i in range(N):
         r_i, az_i, el_i = _rae(particles[i, 0], particles[i, 1], particles[i, 2])
         rdot = _radial_velocity(particles[i, 0], particles[i, 1], particles[i, 2],
                                 particles[i, 3], particles[i, 4], particles[i, 5])
+        log_lam = log_rho + 2.0 * math.log(r_i) + math.log(math.cos(el_i))
         mx = log_miss
         for t in range(m):
             j = idx[t]
@@ -261,7 +263,7 @@ def _pda_loglik_kernel(particles, idx, m, pos, rr, logla, pd, clutter_density,
             e1 = wrap_angle_kernel(az_j - az_i) / sig_angle
             e2 = (el_j - el_i) / sig_angle
             e3 = (rr[j] - rdot) / sig_rr
-            v = log_pd_lam + logla[j] + c - 0.5 * (e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
+            v = log_pd - log_lam + logla[j] + c - 0.5 * (e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
             tmp[t] = v
             if v > mx:
                 mx = v
@@ -313,7 +315,7 @@ def _weighted_state(particles, logw, w, mean):
 
 @nb.njit(cache=True)
 def _pf_run_kernel(method, particles, logw, F, L, pos, rr, snr, log_pfa, logla, offsets, R,
-                   sig_r, sig_v, use_doppler, resample_below, pd, clutter_density,
+                   sig_r, sig_v, use_doppler, resample_below, log_pd, log_miss, log_rho,
                    sig_range, sig_angle, sig_rr, rng, est, centers, nproc, processed, ess,
                    resampled):
     N = particles.shape[0]
@@ -346,7 +348,7 @@ def _pf_run_kernel(method, particles, logw, F, L, pos, rr, snr, log_pfa, logla, 
                 _direct_loglik_kernel(particles, idx, m, pos, rr, lpd, sig_r, sig_v, tmp, ll)
                 updated = True
             elif method == 3:
-                _pda_loglik_kernel(particles, idx, m, pos, rr, logla, pd, clutter_density,
+                _pda_loglik_kernel(particles, idx, m, pos, rr, logla, log_pd, log_miss, log_rho,
                                    sig_range, sig_angle, sig_rr, tmp, ll)
                 updated = True
             else:
@@ -462,9 +464,10 @@ class TbdTrackerConfig:
     ``pfa``: the ``P_fa`` inside eq (9).  ``resample_threshold``: resample when
     ``N_eff < resample_threshold * N``.  ``sigma_range``, ``sigma_angle``,
     ``sigma_range_rate``: the EKF's measurement noise (and method P's likelihood).
-    ``target_snr``, ``clutter_density``, ``detection_probability``: method P only
-    (expected target SNR for the amplitude likelihood ratio, false-alarm density per unit
-    of (m · rad · rad · m/s) in the window, and the P_D in the PDA likelihood).
+    ``target_snr``, ``threshold_db``, ``clutter_density``: method P only (the design
+    SNR of the amplitude likelihood ratio and of ``P_D = Q1(sqrt(2 S), sqrt(2 τ))``, the
+    detection threshold ``τ`` in dB, and the Cartesian false-alarm density per m³ per
+    (m/s) of Doppler; the default is the scenario's ``2.820 km⁻³ e^{-τ} / 600 m/s``).
     """
     method: str = "C"
     n_particles: int = 600
@@ -480,9 +483,9 @@ class TbdTrackerConfig:
     sigma_range: float = 25.0
     sigma_angle: float = math.radians(0.15)
     sigma_range_rate: float = 2.0
-    target_snr: float = 4.0
-    clutter_density: float = 1e-6
-    detection_probability: float = 0.7
+    target_snr: float = 10.0 ** 0.6
+    threshold_db: float = 5.0
+    clutter_density: float = 2.820e-9 * math.exp(-10.0 ** 0.5) / 600.0
 
     def __post_init__(self):
         if self.method not in TBD_METHODS:
@@ -495,7 +498,8 @@ class TbdTrackerConfig:
         as_nonnegative(self.target_snr, "target_snr")
         as_probability(self.pfa, "pfa", open_low=True, open_high=True)
         as_probability(self.resample_threshold, "resample_threshold")
-        as_probability(self.detection_probability, "detection_probability", open_high=True)
+        if not math.isfinite(self.threshold_db):
+            raise ValueError(f"threshold_db must be finite, got {self.threshold_db}")
         g = float(self.gate)
         if not g > 0:
             raise ValueError(f"gate must be > 0 (math.inf for no gate), got {self.gate}")
@@ -535,14 +539,6 @@ def _scan_arrays(scans):
     if off[0] != 0 or off[-1] != M or np.any(np.diff(off) < 0):
         raise ValueError("scans.offsets must rise from 0 to the number of detections")
     return pos, rr, snr, off
-
-
-def log_amplitude_likelihood_ratio(zeta, snr):
-    """Log of ``p_1(ζ | S) / p_0(ζ)`` for a non-fluctuating target of SNR ``S`` in CN(0, 1)
-    noise: ``ln I0(2 sqrt(S ζ)) - S`` (Rician power over exponential)."""
-    from scipy.special import i0e
-    x = 2.0 * np.sqrt(snr * zeta)
-    return np.log(i0e(x)) + x - snr
 
 
 def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig()):
@@ -591,14 +587,21 @@ def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig()):
         logw = np.zeros(N)
         L = noise_factor(Q)
         logla = np.zeros(M)
-        if config.method == "P" and M:
-            logla = np.ascontiguousarray(log_amplitude_likelihood_ratio(snr, config.target_snr))
+        log_pd = log_miss = 0.0
+        if config.method == "P":
+            tau = 10.0 ** (config.threshold_db / 10.0)
+            pd = marcum_detection_probability(config.target_snr, math.exp(-tau))
+            log_pd, log_miss = math.log(pd), math.log1p(-pd)
+            if M:
+                # thresholded densities: (p1 / P_D) / (p0 / P_fa)
+                logla = np.ascontiguousarray(rician_log_likelihood_ratio(snr, config.target_snr)
+                                             - log_pd - tau)
         ess = np.empty(K)
         _pf_run_kernel(_CODE[config.method], particles, logw, F, L, pos, rr, snr, log_pfa, logla, off,
                        float(config.processing_radius), float(config.sigma_r),
                        float(config.sigma_v), bool(config.use_doppler),
-                       float(config.resample_threshold * N), float(config.detection_probability),
-                       float(config.clutter_density), float(config.sigma_range),
+                       float(config.resample_threshold * N), log_pd, log_miss,
+                       math.log(config.clutter_density), float(config.sigma_range),
                        float(config.sigma_angle), float(config.sigma_range_rate), rng,
                        est, centers, nproc, processed, ess, resampled)
     return TbdTrackResult(est, centers, nproc, processed, ess, resampled, accepted)
