@@ -270,4 +270,6 @@ def test_scene_trial_runs_variants_on_shared_detections():
     assert len(t.positions["JPDA"]) == 80
     assert all(p.shape[1] == 2 for p in t.positions["FJPDA"])
     t2 = scene_trial(np.random.default_rng(5), "S2a", cfgs, method="running_average")
-    assert t2.metrics == t.metrics                      # reproducible from the generator
+    # reproducible from the generator (all but the wall-clock association time)
+    assert {k: m._replace(assoc_ms=0.0) for k, m in t2.metrics.items()} == \
+        {k: m._replace(assoc_ms=0.0) for k, m in t.metrics.items()}
