@@ -1,7 +1,10 @@
 """Run every benchmark and write benchmarks/results/benchmarks.json.
 
     python -m benchmarks.run            # all workloads (several minutes on 2 cores)
-    python -m benchmarks.run kf imm     # a subset
+    python -m benchmarks.run kf imm     # a subset (other rows kept; each row records when
+                                        # and at which commit it was measured)
+
+Workloads: kf, imm, pf, jpda, hpda, roofline.
 
 Each workload runs trackcore and its peer (filterpy or Stone Soup) on the same inputs in
 the same process, checks that they agree, and records the median process CPU time per step
@@ -27,17 +30,13 @@ RESULTS = Path(__file__).resolve().parent / "results" / "benchmarks.json"
 
 
 def _workloads():
-    from . import bench_filters, bench_pf, roofline
+    from . import bench_association, bench_filters, bench_pf, roofline
     items = {
         "kf": bench_filters.bench_kf,
         "imm": bench_filters.bench_imm,
         "pf": bench_pf.bench_pf,
     }
-    try:
-        from . import bench_association
-        items.update(bench_association.WORKLOADS)
-    except ImportError:  # the association benchmarks need the chapter kernels
-        pass
+    items.update(bench_association.WORKLOADS)
     return items, roofline.run
 
 
@@ -51,7 +50,8 @@ def main(argv=None) -> int:
         return 2
     previous = json.loads(RESULTS.read_text()) if RESULTS.exists() else {"results": []}
     kept = [r for r in previous.get("results", []) if r.get("key") not in chosen]
-    out = {"machine": machine_description(), "results": kept,
+    machine = machine_description()
+    out = {"machine": machine, "results": kept,
            "blas_threads": os.environ.get("OPENBLAS_NUM_THREADS")}
     for key in chosen:
         if key == "roofline":
@@ -60,6 +60,8 @@ def main(argv=None) -> int:
         rows = items[key]()
         for r in rows:
             r["key"] = key
+            r["measured"] = {"date": machine["date"], "commit": machine["commit"],
+                             "load_average_1_5_15min": machine["load_average_1_5_15min"]}
             print(json.dumps(r))
         out["results"].extend(rows)
         print(f"# {key}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
