@@ -188,7 +188,7 @@ def two_core_throughput(N: int = 100000, repeats: int = 3) -> dict:
 def bench_pf(sizes=(1000, 10000, 100000), repeats=5) -> list[dict]:
     out = []
     for N in sizes:
-        reps = repeats if N < 100000 else 3
+        reps = repeats
         names = ["trackcore_kernel", "trackcore", "stonesoup"]
         if N >= 20000:
             names.append("trackcore_threads")
