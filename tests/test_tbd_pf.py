@@ -98,6 +98,12 @@ def test_direct_weights_match_brute_force():
     rd = radial_velocity(X)
     want = logsumexp(lpd[None] - d / 150.0 - np.abs(rd[:, None] - rr[None]) / 40.0, axis=1)
     np.testing.assert_allclose(got, want, rtol=1e-12)
+    gauss = direct_particle_log_weights(X, p, rr, snr, 150.0, 40.0, 1e-6, kernel="gaussian")
+    want_g = logsumexp(lpd[None] - 0.5 * (d / 150.0) ** 2
+                       - 0.5 * (np.abs(rd[:, None] - rr[None]) / 40.0) ** 2, axis=1)
+    np.testing.assert_allclose(gauss, want_g, rtol=1e-12)
+    with pytest.raises(ValueError, match="kernel"):
+        direct_particle_log_weights(X, p, rr, snr, 150.0, 40.0, 1e-6, kernel="cauchy")
     # m = 0 leaves the weights unchanged (zero log-likelihood)
     np.testing.assert_array_equal(direct_particle_log_weights(X, np.zeros((0, 3)), [], [], 150.0,
                                                               40.0, 1e-6), np.zeros(50))
@@ -148,12 +154,13 @@ def clean_scans(truth, rng, sigma=25.0):
     return scans_from_list([(p[k], [radial_velocity(truth[k])], [20.0]) for k in range(K)])
 
 
-@pytest.mark.parametrize("method", ["A", "B", "C", "P"])
-def test_trackers_follow_a_clean_target(method):
+@pytest.mark.parametrize("method,kernel", [("A", "laplace"), ("B", "laplace"), ("C", "laplace"),
+                                           ("P", "laplace"), ("B", "gaussian"), ("C", "gaussian")])
+def test_trackers_follow_a_clean_target(method, kernel):
     truth = straight_track(40)
     rng = np.random.default_rng(6)
     scans = clean_scans(truth, rng)
-    cfg = TbdTrackerConfig(method=method, n_particles=400, processing_radius=2000.0)
+    cfg = TbdTrackerConfig(method=method, n_particles=400, processing_radius=2000.0, kernel=kernel)
     res = run_tbd_tracker(scans, truth[0] + [200, -100, 50, 10, -5, 0], P0, rng, cfg)
     e = tbd_position_errors(res.estimates, truth)
     assert np.mean(e[10:]) < 120.0
@@ -274,6 +281,8 @@ def test_config_bad_input():
         TbdTrackerConfig(sigma_r=-1.0)
     with pytest.raises(ValueError, match="gate"):
         TbdTrackerConfig(gate=0.0)
+    with pytest.raises(ValueError, match="kernel"):
+        TbdTrackerConfig(kernel="cauchy")
     with pytest.raises(ValueError, match="processing_radius"):
         TbdTrackerConfig(processing_radius=float("nan"))
 

@@ -36,7 +36,6 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from ..core.logmath import logsumexp_kernel
 from ..core.validation import (as_array, as_count, as_covariance, as_int, as_nonnegative,
                                as_positive, as_probability, as_rng, as_vector)
 from ..detection.marcum import (log_marcum_detection_probability,
@@ -50,6 +49,7 @@ from ..models.motion import cv_process_noise, cv_transition
 
 __all__ = [
     "TBD_METHODS",
+    "TBD_KERNELS",
     "TbdTrackerConfig",
     "TbdTrackResult",
     "run_tbd_tracker",
@@ -171,8 +171,17 @@ def radial_velocity(x):
 
 
 # =============================================================================== weights
+#: kernel shapes of eqs (10)/(13): the paper's exp(-x) and the Gaussian exp(-x^2/2), x = d/σ
+TBD_KERNELS = ("laplace", "gaussian")
+
+
+@nb.njit(cache=True, inline="always")
+def _neg_log_kernel(x, gauss):
+    return 0.5 * x * x if gauss else x
+
+
 @nb.njit(cache=True)
-def _weighted_mean_kernel(idx, m, pos, rr, lpd, p_ref, rr_ref, sig_r, sig_v, lw, out_p):
+def _weighted_mean_kernel(idx, m, pos, rr, lpd, p_ref, rr_ref, sig_r, sig_v, gauss, lw, out_p):
     """Eqs (10)-(11) with normalised weights: p̄ into ``out_p``; returns the weighted ṙ̄.
 
     ``lpd[t]`` is ``log P_D`` of detection ``idx[t]``; ``lw`` is an (>= m,) work array.
@@ -184,7 +193,7 @@ def _weighted_mean_kernel(idx, m, pos, rr, lpd, p_ref, rr_ref, sig_r, sig_v, lw,
         d = math.sqrt((pos[j, 0] - p_ref[0]) ** 2 + (pos[j, 1] - p_ref[1]) ** 2
                       + (pos[j, 2] - p_ref[2]) ** 2)
         v = abs(rr[j] - rr_ref)
-        lw[t] = lpd[t] - d / sig_r - v / sig_v
+        lw[t] = lpd[t] - _neg_log_kernel(d / sig_r, gauss) - _neg_log_kernel(v / sig_v, gauss)
         if lw[t] > mx:
             mx = lw[t]
     if mx == -np.inf:
@@ -209,7 +218,7 @@ def _weighted_mean_kernel(idx, m, pos, rr, lpd, p_ref, rr_ref, sig_r, sig_v, lw,
 
 
 @nb.njit(cache=True)
-def _direct_loglik_kernel(particles, idx, m, pos, rr, lpd, sig_r, sig_v, tmp, out):
+def _direct_loglik_kernel(particles, idx, m, pos, rr, lpd, sig_r, sig_v, gauss, tmp, out):
     """Eqs (13)-(14) in log space: ``out[i] = logsumexp_j(log P_D,j - d_ij/σ_r - δ_ij/σ_v)``."""
     N = particles.shape[0]
     inv_r = 1.0 / sig_r
@@ -223,7 +232,8 @@ def _direct_loglik_kernel(particles, idx, m, pos, rr, lpd, sig_r, sig_v, tmp, ou
         for t in range(m):
             j = idx[t]
             d = math.sqrt((x0 - pos[j, 0]) ** 2 + (x1 - pos[j, 1]) ** 2 + (x2 - pos[j, 2]) ** 2)
-            v = lpd[t] - d * inv_r - abs(rdot - rr[j]) * inv_v
+            v = (lpd[t] - _neg_log_kernel(d * inv_r, gauss)
+                 - _neg_log_kernel(abs(rdot - rr[j]) * inv_v, gauss))
             tmp[t] = v
             if v > mx:
                 mx = v
@@ -315,7 +325,7 @@ def _weighted_state(particles, logw, w, mean):
 
 @nb.njit(cache=True)
 def _pf_run_kernel(method, particles, logw, F, L, pos, rr, snr, log_pfa, logla, offsets, R,
-                   sig_r, sig_v, use_doppler, resample_below, log_pd, log_miss, log_rho,
+                   sig_r, sig_v, gauss, use_doppler, resample_below, log_pd, log_miss, log_rho,
                    sig_range, sig_angle, sig_rr, rng, est, centers, nproc, processed, ess,
                    resampled):
     N = particles.shape[0]
@@ -345,25 +355,25 @@ def _pf_run_kernel(method, particles, logw, F, L, pos, rr, snr, log_pfa, logla, 
         updated = False
         if m > 0:
             if method == 2:
-                _direct_loglik_kernel(particles, idx, m, pos, rr, lpd, sig_r, sig_v, tmp, ll)
+                _direct_loglik_kernel(particles, idx, m, pos, rr, lpd, sig_r, sig_v, gauss, tmp, ll)
                 updated = True
             elif method == 3:
                 _pda_loglik_kernel(particles, idx, m, pos, rr, logla, log_pd, log_miss, log_rho,
                                    sig_range, sig_angle, sig_rr, tmp, ll)
                 updated = True
             else:
-                rbar = _weighted_mean_kernel(idx, m, pos, rr, lpd, mean, rr_pred, sig_r, sig_v,
+                rbar = _weighted_mean_kernel(idx, m, pos, rr, lpd, mean, rr_pred, sig_r, sig_v, gauss,
                                              tmp, pbar)
                 if not math.isnan(rbar):
                     for i in range(N):
                         d = math.sqrt((particles[i, 0] - pbar[0]) ** 2
                                       + (particles[i, 1] - pbar[1]) ** 2
                                       + (particles[i, 2] - pbar[2]) ** 2)
-                        v = -d / sig_r
+                        v = -_neg_log_kernel(d / sig_r, gauss)
                         if use_doppler:
                             rd = _radial_velocity(particles[i, 0], particles[i, 1], particles[i, 2],
                                                   particles[i, 3], particles[i, 4], particles[i, 5])
-                            v -= abs(rd - rbar) / sig_v
+                            v -= _neg_log_kernel(abs(rd - rbar) / sig_v, gauss)
                         ll[i] = v
                     updated = True
         if updated:
@@ -394,7 +404,7 @@ def _pf_run_kernel(method, particles, logw, F, L, pos, rr, snr, log_pfa, logla, 
 
 
 @nb.njit(cache=True)
-def _ekf_run_kernel(x, P, F, Q, Rm, pos, rr, snr, log_pfa, offsets, R, sig_r, sig_v, gate,
+def _ekf_run_kernel(x, P, F, Q, Rm, pos, rr, snr, log_pfa, offsets, R, sig_r, sig_v, gauss, gate,
                     use_doppler, est, centers, nproc, processed, accepted):
     K = offsets.shape[0] - 1
     nz = 4 if use_doppler else 3
@@ -426,7 +436,8 @@ def _ekf_run_kernel(x, P, F, Q, Rm, pos, rr, snr, log_pfa, offsets, R, sig_r, si
         m = _window(pos, snr, log_pfa, offsets[k], offsets[k + 1], x, R, idx, lpd, processed)
         nproc[k] = m
         if m > 0:
-            rbar = _weighted_mean_kernel(idx, m, pos, rr, lpd, x, rr_pred, sig_r, sig_v, tmp, pbar)
+            rbar = _weighted_mean_kernel(idx, m, pos, rr, lpd, x, rr_pred, sig_r, sig_v, gauss, tmp,
+                                         pbar)
             if not math.isnan(rbar):
                 r_m, az_m, el_m = _rae(pbar[0], pbar[1], pbar[2])
                 r_p, az_p, el_p = _rae(x[0], x[1], x[2])
@@ -460,7 +471,8 @@ class TbdTrackerConfig:
     (direct particle weights, the paper's proposal) or ``"P"`` (extension: PDA particle
     likelihood with the amplitude likelihood ratio).  ``gate``: NIS threshold of the EKF
     (99 % of chi-square with 3 dof; ``math.inf`` = the paper's ungated EKF).
-    ``use_doppler``: give (A)/(B) the weighted-mean Doppler too (ablation).
+    ``use_doppler``: give (A)/(B) the weighted-mean Doppler too (ablation).  ``kernel``:
+    ``"laplace"`` (the paper's ``exp(-d/σ)``) or ``"gaussian"`` (``exp(-d²/(2σ²))``, ablation).
     ``pfa``: the ``P_fa`` inside eq (9).  ``resample_threshold``: resample when
     ``N_eff < resample_threshold * N``.  ``sigma_range``, ``sigma_angle``,
     ``sigma_range_rate``: the EKF's measurement noise (and method P's likelihood).
@@ -479,6 +491,7 @@ class TbdTrackerConfig:
     resample_threshold: float = 0.5
     gate: float = 11.345
     use_doppler: bool = False
+    kernel: str = "laplace"
     scan_period: float = 1.0
     sigma_range: float = 25.0
     sigma_angle: float = math.radians(0.15)
@@ -490,6 +503,8 @@ class TbdTrackerConfig:
     def __post_init__(self):
         if self.method not in TBD_METHODS:
             raise ValueError(f"method must be one of {TBD_METHODS}, got {self.method!r}")
+        if self.kernel not in TBD_KERNELS:
+            raise ValueError(f"kernel must be one of {TBD_KERNELS}, got {self.kernel!r}")
         as_int(self.n_particles, "n_particles", minimum=1)
         for name in ("processing_radius", "sigma_r", "sigma_v", "scan_period", "sigma_range",
                      "sigma_angle", "sigma_range_rate", "clutter_density"):
@@ -577,7 +592,8 @@ def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig()):
         P = P0.copy()
         _ekf_run_kernel(x, P, F, Q, np.ascontiguousarray(Rm), pos, rr, snr, log_pfa, off,
                         float(config.processing_radius), float(config.sigma_r),
-                        float(config.sigma_v), float(config.gate), bool(config.use_doppler),
+                        float(config.sigma_v), config.kernel == "gaussian", float(config.gate),
+                        bool(config.use_doppler),
                         est, centers, nproc, processed, accepted)
         ess = np.full(K, np.nan)
     else:
@@ -599,7 +615,7 @@ def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig()):
         ess = np.empty(K)
         _pf_run_kernel(_CODE[config.method], particles, logw, F, L, pos, rr, snr, log_pfa, logla, off,
                        float(config.processing_radius), float(config.sigma_r),
-                       float(config.sigma_v), bool(config.use_doppler),
+                       float(config.sigma_v), config.kernel == "gaussian", bool(config.use_doppler),
                        float(config.resample_threshold * N), log_pd, log_miss,
                        math.log(config.clutter_density), float(config.sigma_range),
                        float(config.sigma_angle), float(config.sigma_range_rate), rng,
@@ -608,7 +624,8 @@ def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig()):
 
 
 # =============================================================================== pieces, for tests and notebooks
-def weighted_mean_detection(positions, range_rate, snr, p_ref, rr_ref, sigma_r, sigma_v, pfa):
+def weighted_mean_detection(positions, range_rate, snr, p_ref, rr_ref, sigma_r, sigma_v, pfa,
+                            kernel="laplace"):
     """Eqs (10)-(11) with normalised weights (erratum 4): ``(p̄ (3,), ṙ̄)``.
 
     ``positions (m, 3)``, ``range_rate (m,)``, ``snr (m,)`` linear; ``p_ref`` (3,) and
@@ -624,18 +641,21 @@ def weighted_mean_detection(positions, range_rate, snr, p_ref, rr_ref, sigma_r, 
     p_ref = as_vector(p_ref, "p_ref", 3)
     sigma_r = as_positive(sigma_r, "sigma_r")
     sigma_v = as_positive(sigma_v, "sigma_v")
+    _kernel_flag(kernel)
     if m == 0:
         return None, None
     logpd = np.ascontiguousarray(log_marcum_detection_probability(snr, pfa))
     out = np.empty(3)
     rbar = _weighted_mean_kernel(np.arange(m), m, np.ascontiguousarray(pos.reshape(m, 3)), rr,
-                                 logpd, p_ref, float(rr_ref), sigma_r, sigma_v, np.empty(m), out)
+                                 logpd, p_ref, float(rr_ref), sigma_r, sigma_v,
+                                 _kernel_flag(kernel), np.empty(m), out)
     if math.isnan(rbar):
         return None, None
     return out, float(rbar)
 
 
-def direct_particle_log_weights(particles, positions, range_rate, snr, sigma_r, sigma_v, pfa):
+def direct_particle_log_weights(particles, positions, range_rate, snr, sigma_r, sigma_v, pfa,
+                                kernel="laplace"):
     """Eqs (12)-(14) in log space: ``log w̄_s^i`` (N,) for particles ``(N, 6)``.
 
     ``m = 0`` returns zeros (no information: the weights stay as they were).
@@ -651,13 +671,20 @@ def direct_particle_log_weights(particles, positions, range_rate, snr, sigma_r, 
     snr = as_array(snr, "snr", shape=(m,))
     sigma_r = as_positive(sigma_r, "sigma_r")
     sigma_v = as_positive(sigma_v, "sigma_v")
+    _kernel_flag(kernel)
     if m == 0:
         return np.zeros(X.shape[0])
     logpd = np.ascontiguousarray(log_marcum_detection_probability(snr, pfa))
     out = np.empty(X.shape[0])
     _direct_loglik_kernel(X, np.arange(m), m, np.ascontiguousarray(pos), rr, logpd, sigma_r,
-                          sigma_v, np.empty(m), out)
+                          sigma_v, _kernel_flag(kernel), np.empty(m), out)
     return out
+
+
+def _kernel_flag(kernel):
+    if kernel not in TBD_KERNELS:
+        raise ValueError(f"kernel must be one of {TBD_KERNELS}, got {kernel!r}")
+    return kernel == "gaussian"
 
 
 def tbd_position_errors(estimates, truth):
