@@ -477,6 +477,51 @@ def test_bootstrap_step_bad_input():
         bootstrap_step(X, lw, F, L, [1.0, 0.0], np.eye(2), rng, scratch=np.empty((4, 4)))
 
 
+def test_bootstrap_step_fast_validation_paths():
+    """The cheap per-argument paths (plain float64 arrays, memoised R^-1) give the
+    same results as the full checks, and still reject bad input."""
+    F, (_, L) = cv(), dwna(1.0, 1.0)
+    X0 = np.random.default_rng(3).normal(size=(50, 4)) * 10 + [100.0, 50.0, 1.0, 1.0]
+    z = np.array([112.0, 0.46])
+    outs = []
+    for conv in (lambda a: a, lambda a: a.tolist()):   # plain arrays vs lists (full path)
+        X, lw = X0.copy(), np.zeros(50)
+        R = np.diag([4.0, 1e-3])
+        r = bootstrap_step(conv(X), conv(lw), conv(F), conv(L), conv(z), conv(R),
+                           np.random.default_rng(1))
+        outs.append((r.particles.copy(), r.logw.copy(), r.log_evidence, r.ess))
+    np.testing.assert_array_equal(outs[0][0], outs[1][0])
+    np.testing.assert_array_equal(outs[0][1], outs[1][1])
+    assert outs[0][2:] == outs[1][2:]
+    # a different R after a cached one is not confused with it
+    r1 = bootstrap_step(X0.copy(), np.zeros(50), F, L, z, np.diag([4.0, 1e-3]),
+                        np.random.default_rng(1))
+    r2 = bootstrap_step(X0.copy(), np.zeros(50), F, L, z, np.diag([9.0, 1e-3]),
+                        np.random.default_rng(1))
+    assert r1.log_evidence != r2.log_evidence
+    # bad inputs after the good ones were cached
+    with pytest.raises(ValueError, match="R"):
+        bootstrap_step(X0.copy(), np.zeros(50), F, L, z, np.diag([4.0, -1e-3]),
+                       np.random.default_rng(1))
+    bad = X0.copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(ValueError, match="particles"):
+        bootstrap_step(bad, np.zeros(50), F, L, z, np.eye(2), np.random.default_rng(1))
+    lw = np.zeros(50)
+    lw[:10] = -np.inf                  # -inf entries are valid (zero weight): full path
+    r = bootstrap_step(X0.copy(), lw, F, L, z, np.eye(2), np.random.default_rng(1))
+    assert np.all(np.isfinite(r.logw))
+    with pytest.raises(ValueError, match="z"):
+        bootstrap_step(X0.copy(), np.zeros(50), F, L, np.array([np.inf, 0.0]), np.eye(2),
+                       np.random.default_rng(1))
+    with pytest.raises(ValueError, match="F"):
+        bootstrap_step(X0.copy(), np.zeros(50), F * np.nan, L, z, np.eye(2),
+                       np.random.default_rng(1))
+    r = bootstrap_step(X0.copy(), np.zeros(50), F, L, z, np.eye(2), np.random.default_rng(1),
+                       sensor=np.array([0.0, 0.0]), ess_threshold=np.float64(1.0))
+    assert r.resampled
+
+
 def test_kernels_link_into_a_fresh_callers_kernel(tmp_path):
     """A user's njit loop calling the cached kernels must compile in a fresh process
     (a cached parallel=True callee would abort LLVM there; see particle.py)."""

@@ -35,6 +35,7 @@ from ..core.logmath import logsumexp_kernel
 from ..core.validation import (as_array, as_covariance, as_int, as_matrix, as_rng,
                                as_scalar, as_square_matrix, as_vector)
 from ..models.measurement import wrap_angle_kernel
+from ._fastcheck import checked
 
 __all__ = [
     "noise_factor",
@@ -507,6 +508,30 @@ def resample_particles(particles, logw, rng, scheme="systematic", n_out=None):
 # --------------------------------------------------------------------------
 # measurement log-likelihoods on particle batches
 # --------------------------------------------------------------------------
+def _plain(x, ndim):
+    return (type(x) is np.ndarray and x.dtype == np.float64 and x.ndim == ndim
+            and x.flags.c_contiguous)
+
+
+_RINV_CACHE: dict = {}
+
+
+def _inv_logdet_cached(R, d):
+    """:func:`_inv_logdet` of ``R`` (``(d, d)``), memoised on the bytes of a plain
+    float64 ``R`` (filters call it every step with the same matrix).  Only
+    successes are cached; the cached ``R^-1`` is private to the step functions."""
+    if not _plain(R, 2) or R.shape != (d, d):
+        return _inv_logdet(as_square_matrix(R, "R", d))
+    key = R.tobytes()
+    hit = _RINV_CACHE.get(key)
+    if hit is None:
+        Rinv, logdet = _inv_logdet(as_square_matrix(R, "R", d))
+        if len(_RINV_CACHE) >= 256:
+            _RINV_CACHE.clear()
+        hit = _RINV_CACHE[key] = (Rinv, logdet)
+    return hit
+
+
 def _inv_logdet(R, name="R"):
     """``(R^-1, log|R|)`` of a symmetric positive definite ``R`` (validated).
 
@@ -857,21 +882,37 @@ def bootstrap_step(particles, logw, F, L, z, R, rng, model="range_bearing", *,
     numba threads for ``N >= 20000`` (same results; only worth it on idle
     cores).  Returns a :class:`BootstrapStep`.
     """
-    rng = as_rng(rng)
+    # Each argument takes a cheap path when it is already what the kernel needs
+    # (C-contiguous float64 of the right shape, finite sum); anything else goes
+    # through the full checks, which convert or raise the usual errors.
+    rng = rng if type(rng) is np.random.Generator else as_rng(rng)
     if model not in _MODELS:
         raise ValueError(f"model must be one of {tuple(_MODELS)}, got {model!r}")
     code = _MODELS[model]
-    X = _as_particles(particles)
+    if _plain(particles, 2) and math.isfinite(particles.sum()):
+        X = particles
+    else:
+        X = _as_particles(particles)
     N, n = X.shape
     if N == 0:
         raise ValueError("particles must not be empty")
-    lw = _as_logw(logw, N)  # the caller's array itself when already float64 C-contiguous
-    F = as_square_matrix(F, "F", n)
-    L = as_matrix(L, "L", (n, None))
+    if _plain(logw, 1) and logw.shape[0] == N and math.isfinite(logw.sum()):
+        lw = logw
+    else:
+        lw = _as_logw(logw, N)  # the caller's array itself when already float64 C-contiguous
+    F = checked(F, "F", (n, n)) if _plain(F, 2) else as_square_matrix(F, "F", n)
+    L = checked(L, "L", L.shape) if (_plain(L, 2) and L.shape[0] == n) else as_matrix(
+        L, "L", (n, None))
     if L.shape[1] > n:
         raise ValueError(f"L must have at most {n} columns (Q = L L^T), got {L.shape}")
-    z = as_vector(z, "z") if not (isinstance(z, (list, tuple)) and len(z) == 0) else np.zeros(0)
-    ess_threshold = as_scalar(ess_threshold, "ess_threshold")
+    if _plain(z, 1) and math.isfinite(z.sum()):
+        pass
+    elif isinstance(z, (list, tuple)) and len(z) == 0:
+        z = np.zeros(0)
+    else:
+        z = as_vector(z, "z")
+    if type(ess_threshold) is not float:
+        ess_threshold = as_scalar(ess_threshold, "ess_threshold")
     if not 0.0 <= ess_threshold <= 1.0:
         raise ValueError(f"ess_threshold must be in [0, 1], got {ess_threshold}")
     if z.shape[0] == 0:
@@ -884,8 +925,8 @@ def bootstrap_step(particles, logw, F, L, z, R, rng, model="range_bearing", *,
                 raise ValueError("particles must have at least 2 columns")
         elif z.shape[0] > n:
             raise ValueError(f"z must have at most {n} components, got {z.shape[0]}")
-        Rinv, logdet = _inv_logdet(as_square_matrix(R, "R", z.shape[0]))
-    sx, sy = _sensor(sensor)
+        Rinv, logdet = _inv_logdet_cached(R, z.shape[0])
+    sx, sy = (0.0, 0.0) if type(sensor) is tuple and sensor == (0.0, 0.0) else _sensor(sensor)
     if scratch is None:
         scratch = np.empty_like(X)
     elif not (isinstance(scratch, np.ndarray) and scratch.dtype == np.float64
