@@ -342,3 +342,24 @@ def test_error_summary():
     assert w.mean == pytest.approx(E[:, :5].mean()) and w.lost == 1
     with pytest.raises(ValueError, match="errors"):
         tbd_error_summary(np.zeros((0, 5)))
+
+
+def test_roughening():
+    from trackcore.trackers.tbd_pf import _roughen
+    N = 200_000
+    X = np.zeros((N, 6))
+    X[0] = -np.arange(1, 7)      # spread E_a = 2 a per component
+    X[1] = np.arange(1, 7)
+    before = X.copy()
+    _roughen(X, 0.2, np.random.default_rng(3))
+    sd = (X - before)[2:].std(axis=0)
+    np.testing.assert_allclose(sd, 0.2 * N ** (-1 / 6) * 2 * np.arange(1, 7), rtol=0.01)
+    # a whole run with roughening still tracks a clean target
+    truth = straight_track(12)
+    scans = clean_scans(truth, np.random.default_rng(21))
+    cfg = TbdTrackerConfig(method="C", n_particles=500, resample_threshold=1.0, roughening=0.2)
+    r = run_tbd_tracker(scans, truth[0], P0, np.random.default_rng(2), cfg)
+    assert r.resampled.all()
+    assert np.mean(tbd_position_errors(r.estimates, truth)[4:]) < 150.0
+    with pytest.raises(ValueError, match="roughening"):
+        TbdTrackerConfig(roughening=-0.1)

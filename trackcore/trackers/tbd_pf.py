@@ -324,9 +324,29 @@ def _weighted_state(particles, logw, w, mean):
 
 
 @nb.njit(cache=True)
+def _roughen(particles, K, rng):
+    """Roughening (Gordon, Salmond & Smith 1993): add ``N(0, (K E_a N^{-1/n})^2)`` to
+    component ``a`` of every particle, ``E_a`` the spread (max - min) of that component."""
+    N, n = particles.shape
+    scale = K * N ** (-1.0 / n)
+    for a in range(n):
+        lo = particles[0, a]
+        hi = particles[0, a]
+        for i in range(1, N):
+            v = particles[i, a]
+            if v < lo:
+                lo = v
+            if v > hi:
+                hi = v
+        sd = scale * (hi - lo)
+        for i in range(N):
+            particles[i, a] += sd * rng.standard_normal()
+
+
+@nb.njit(cache=True)
 def _pf_run_kernel(method, particles, logw, F, L, pos, rr, snr, log_pfa, logla, offsets, R,
                    sig_r, sig_v, gauss, use_doppler, resample_below, log_pd, log_miss, log_rho,
-                   sig_range, sig_angle, sig_rr, rng, est, centers, nproc, processed, ess,
+                   sig_range, sig_angle, sig_rr, roughening, rng, est, centers, nproc, processed, ess,
                    resampled):
     N = particles.shape[0]
     K = offsets.shape[0] - 1
@@ -400,6 +420,8 @@ def _pf_run_kernel(method, particles, logw, F, L, pos, rr, snr, log_pfa, logla, 
                 for a in range(6):
                     particles[i, a] = work[i, a]
                 logw[i] = 0.0
+            if roughening > 0.0:
+                _roughen(particles, roughening, rng)
             resampled[k] = True
 
 
@@ -473,6 +495,8 @@ class TbdTrackerConfig:
     (99 % of chi-square with 3 dof; ``math.inf`` = the paper's ungated EKF).
     ``use_doppler``: give (A)/(B) the weighted-mean Doppler too (ablation).  ``kernel``:
     ``"laplace"`` (the paper's ``exp(-d/σ)``) or ``"gaussian"`` (``exp(-d²/(2σ²))``, ablation).
+    ``roughening``: the constant ``K`` of roughening after each resampling (0 = off;
+    Gordon et al. suggest about 0.2); PF methods only.
     ``pfa``: the ``P_fa`` inside eq (9).  ``resample_threshold``: resample when
     ``N_eff < resample_threshold * N``.  ``sigma_range``, ``sigma_angle``,
     ``sigma_range_rate``: the EKF's measurement noise (and method P's likelihood).
@@ -492,6 +516,7 @@ class TbdTrackerConfig:
     gate: float = 11.345
     use_doppler: bool = False
     kernel: str = "laplace"
+    roughening: float = 0.0
     scan_period: float = 1.0
     sigma_range: float = 25.0
     sigma_angle: float = math.radians(0.15)
@@ -510,6 +535,7 @@ class TbdTrackerConfig:
                      "sigma_angle", "sigma_range_rate", "clutter_density"):
             as_positive(getattr(self, name), name)
         as_nonnegative(self.sigma_a, "sigma_a")
+        as_nonnegative(self.roughening, "roughening")
         as_nonnegative(self.target_snr, "target_snr")
         as_probability(self.pfa, "pfa", open_low=True, open_high=True)
         as_probability(self.resample_threshold, "resample_threshold")
@@ -618,8 +644,8 @@ def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig()):
                        float(config.sigma_v), config.kernel == "gaussian", bool(config.use_doppler),
                        float(config.resample_threshold * N), log_pd, log_miss,
                        math.log(config.clutter_density), float(config.sigma_range),
-                       float(config.sigma_angle), float(config.sigma_range_rate), rng,
-                       est, centers, nproc, processed, ess, resampled)
+                       float(config.sigma_angle), float(config.sigma_range_rate),
+                       float(config.roughening), rng, est, centers, nproc, processed, ess, resampled)
     return TbdTrackResult(est, centers, nproc, processed, ess, resampled, accepted)
 
 
