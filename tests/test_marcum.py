@@ -256,3 +256,17 @@ def test_rician_likelihood_ratio():
         rician_log_likelihood_ratio(-1.0, S)
     with pytest.raises(ValueError, match="snr"):
         rician_log_likelihood_ratio(1.0, -S)
+
+
+def test_detection_probability_is_the_public_marcum_name():
+    from trackcore import detection
+
+    assert detection.detection_probability is detection.marcum_detection_probability
+    # the definition: P_D = Q1(sqrt(2 snr), sqrt(-2 ln pfa)) with linear SNR
+    snr, pfa = 10 ** (13 / 10), 1e-6
+    expected = detection.marcum_q1(np.sqrt(2 * snr), np.sqrt(-2 * np.log(pfa)))
+    assert detection.detection_probability(snr, pfa) == pytest.approx(expected, rel=1e-12)
+    with pytest.raises(ValueError, match="pfa"):
+        detection.detection_probability(1.0, 1.0)
+    with pytest.raises(ValueError, match="snr"):
+        detection.detection_probability(-1.0, 1e-3)

@@ -37,11 +37,10 @@ not for ``a`` in the thousands.
 Swerling I (exponentially distributed power, mean ``snr``, constant within the
 dwell) averages ``P_D`` in closed form: ``P_D = pfa^(1/(1 + snr))``.
 
-Naming: the issue asks for ``trackcore.detection.detection_probability(snr, pfa)``;
-``trackcore/detection/amplitude.py`` (the HPDA chapter) already exports
-``detection_probability(tau, snr)`` for the exponential model, and exported names must
-be unique in a subpackage, so the Marcum form is exported as
-:func:`marcum_detection_probability` (same signature ``(snr, pfa)``).
+Naming: :func:`detection_probability` ``(snr, pfa)`` is the book's public name for the
+square-law Marcum form; :func:`marcum_detection_probability` is the same function under a
+name that says which model it is (the HPDA chapter's exponential-amplitude model is
+``exponential_detection_probability(tau, snr)`` in ``trackcore/detection/amplitude.py``).
 """
 from __future__ import annotations
 
@@ -58,6 +57,7 @@ __all__ = [
     "log_marcum_q1",
     "log_marcum_q1_complement",
     "log_marcum_q1_pair_kernel",
+    "detection_probability",
     "marcum_detection_probability",
     "marcum_miss_probability",
     "log_marcum_detection_probability",
@@ -291,6 +291,9 @@ def marcum_detection_probability(snr, pfa):
     ``snr = 0`` the result is ``pfa``.
     """
     return _pd(snr, pfa, False, False)
+
+
+detection_probability = marcum_detection_probability
 
 
 def marcum_miss_probability(snr, pfa):
