@@ -23,9 +23,11 @@ __all__ = [
     "range_bearing",
     "range_bearing_jacobian",
     "range_bearing_kernel",
+    "range_bearing_jacobian_kernel",
     "range_bearing_doppler",
     "range_bearing_doppler_jacobian",
     "range_bearing_doppler_kernel",
+    "range_bearing_doppler_jacobian_kernel",
     "polar_to_cartesian",
     "converted_measurement_covariance",
 ]
@@ -107,7 +109,7 @@ def range_bearing(x, sensor=None):
 
 
 @nb.njit(cache=True)
-def _range_bearing_jacobian_kernel(X, sx, sy, out):
+def range_bearing_jacobian_kernel(X, sx, sy, out):
     """Returns the index of the first zero-range state, or -1."""
     for i in range(X.shape[0]):
         dx = X[i, 0] - sx
@@ -134,7 +136,7 @@ def range_bearing_jacobian(x, sensor=None):
     single = X.ndim == 1
     X2 = X.reshape(1, -1) if single else X
     out = np.zeros((X2.shape[0], 2, X2.shape[1]))
-    bad = _range_bearing_jacobian_kernel(X2, s[0], s[1], out)
+    bad = range_bearing_jacobian_kernel(X2, s[0], s[1], out)
     if bad >= 0:
         raise ValueError("x is at zero range from the sensor: the range-bearing Jacobian "
                          f"is undefined (state index {bad})")
@@ -178,7 +180,7 @@ def range_bearing_doppler(x_rel):
 
 
 @nb.njit(cache=True)
-def _range_bearing_doppler_jacobian_kernel(X, out):
+def range_bearing_doppler_jacobian_kernel(X, out):
     for i in range(X.shape[0]):
         x = X[i, 0]
         y = X[i, 1]
@@ -210,7 +212,7 @@ def range_bearing_doppler_jacobian(x_rel):
     single = X.ndim == 1
     X2 = X.reshape(1, -1) if single else X
     out = np.zeros((X2.shape[0], 3, X2.shape[1]))
-    bad = _range_bearing_doppler_jacobian_kernel(X2, out)
+    bad = range_bearing_doppler_jacobian_kernel(X2, out)
     if bad >= 0:
         raise ValueError("x_rel has zero range: the range-bearing-Doppler Jacobian is "
                          f"undefined (state index {bad})")

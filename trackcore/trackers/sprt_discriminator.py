@@ -42,7 +42,7 @@ import numpy as np
 from ..core.logmath import LOG_2PI
 from ..core.validation import as_array, as_nonnegative, as_positive
 from ..filters.kalman import kf_predict_kernel, kf_update_kernel
-from ..models.measurement import (_range_bearing_doppler_jacobian_kernel,
+from ..models.measurement import (range_bearing_doppler_jacobian_kernel,
                                   range_bearing_doppler_kernel, wrap_angle_kernel)
 from ..models.modified_polar import modified_polar_F_kernel, modified_polar_f_kernel
 from ..models.motion import cv_process_noise, cv_transition
@@ -88,7 +88,7 @@ def _target_update(x, P, z, R, x_out, P_out):
     H = np.zeros((1, 3, 4))
     if range_bearing_doppler_kernel(X, zp) >= 0:
         return 0.0, np.nan, False
-    _range_bearing_doppler_jacobian_kernel(X, H)
+    range_bearing_doppler_jacobian_kernel(X, H)
     Hk = H[0]
     # The foundation's linear update recomputes nu = z_eff - H x; passing
     # z_eff = nu + H x applies the EKF innovation nu = z - h(x) (bearing wrapped).
