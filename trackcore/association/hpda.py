@@ -127,7 +127,6 @@ def hpda_rank_probabilities_kernel(m, c, pd, pg, clutter_mean, log_pt, log_pf):
         log_pm = hi + math.log(math.exp(a - hi) + math.exp(b - hi))
     for l in range(1, m + 1):
         lq = _log_q(l, m, c)
-        q = math.exp(lq)
         log_pt[l - 1] = b + lq
         # P_F = (1-pdpg) mu(m) + pdpg mu(m-1) (1 - q); 1 - q >= 0 exactly at q = 1
         one_m_q = -math.expm1(lq)
@@ -137,8 +136,6 @@ def hpda_rank_probabilities_kernel(m, c, pd, pg, clutter_mean, log_pt, log_pf):
             log_pf[l - 1] = -np.inf
         else:
             log_pf[l - 1] = hi2 + math.log(math.exp(a - hi2) + math.exp(bf - hi2))
-        if q < 0.0:  # pragma: no cover - q is a probability
-            log_pt[l - 1] = -np.inf
     return log_pm
 
 

@@ -37,6 +37,7 @@ import numpy as np
 
 from ..association.jpda import _enumerate_kernel
 from ..core.validation import as_array, as_int, as_rng
+from ..filters.particle import systematic_indices_kernel
 from ..models.measurement import wrap_angle_kernel
 from .hpda_pf import (TrackerRun, _particle_moments, check_scans,
                       jump_markov_propagate_kernel)
@@ -103,6 +104,7 @@ def _cluster_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_id
     scratch = np.zeros((N, 4))
     ms = np.zeros(N, dtype=np.int64)
     wts = np.zeros(N)
+    ridx = np.zeros(N, dtype=np.int64)
     hr = np.zeros(N)
     hb = np.zeros(N)
     chain = np.zeros(eta, dtype=np.int64)
@@ -202,14 +204,9 @@ def _cluster_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_id
                         v += bj * gnorm * math.exp(-0.5 * (dr * dr * i00 + db * db * i11)) / lik[g, q]
                     wts[i] = v
                     tot += v
-                u0 = rng.random()
-                j = 0
-                cacc = wts[0]
+                systematic_indices_kernel(wts, rng.random(), ridx)
                 for i in range(N):
-                    pos = (u0 + i) / N * tot
-                    while pos >= cacc and j < N - 1:
-                        j += 1
-                        cacc += wts[j]
+                    j = ridx[i]
                     for a in range(4):
                         scratch[i, a] = X[t, j, a]
                     ms[i] = Mo[t, j]

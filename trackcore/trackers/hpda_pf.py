@@ -35,8 +35,12 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-from ..association.hpda import (hpda_conditional_rank_kernel, rank_log_q_kernel,
-                                hpda_existence_delta_kernel)
+from ..association.gating import gate_threshold
+from ..association.hpda import (hpda_conditional_rank_kernel, hpda_existence_delta_kernel,
+                                hpda_mixture_loglik_kernel, rank_log_q_kernel)
+from ..association.pda import pda_update_kernel
+from ..filters.kalman import kf_predict_kernel
+from ..filters.particle import systematic_indices_kernel
 from ..core.validation import as_array, as_int, as_rng
 from ..models.measurement import wrap_angle_kernel
 
@@ -56,8 +60,6 @@ SELECT_HPDA = 0
 SELECT_STRONGEST = 1
 SELECT_NEAREST = 2
 _RULES = {"hpda": SELECT_HPDA, "strongest": SELECT_STRONGEST, "nearest": SELECT_NEAREST}
-
-_LOG_2PI = math.log(2.0 * math.pi)
 
 
 @dataclass(frozen=True)
@@ -115,8 +117,8 @@ class HpdaPfConfig:
 
     @property
     def gate_threshold(self) -> float:
-        """``g^2`` of a 2-D gate: ``-2 ln(1 - P_G)`` (the chi^2_2 quantile)."""
-        return -2.0 * math.log(1.0 - self.gate_probability)
+        """``g^2`` of a 2-D gate with probability ``gate_probability``."""
+        return gate_threshold(self.gate_probability, 2)
 
 
 class TrackerRun(NamedTuple):
@@ -277,34 +279,21 @@ def _gate_and_select(Zs, As_order, zhat, S, g2, pd, pg, c, lam_xy, rule,
 
 
 @nb.njit(cache=True)
-def _weight_resample(X, modes, z, Rinv, logdetR, log_pt, log_pf_vg, logw, scratch, mscratch, rng):
-    """Eq (13) weights for ``z^s``, normalise, systematic resampling in place."""
+def _weight_resample(X, modes, z, Rinv, logdetR, log_pt, log_pf_vg, logw, scratch, mscratch,
+                     idx, rng):
+    """Eq (13) weights for ``z^s`` (:func:`hpda_mixture_loglik_kernel`),
+    then systematic resampling in place (one ``rng.random()``)."""
     N = X.shape[0]
-    cst = -_LOG_2PI - 0.5 * logdetR
+    hpda_mixture_loglik_kernel(X, z, Rinv, logdetR, 0.0, 0.0, log_pt, log_pf_vg, logw)
     mx = -np.inf
     for i in range(N):
-        r0 = z[0] - math.sqrt(X[i, 0] * X[i, 0] + X[i, 1] * X[i, 1])
-        r1 = wrap_angle_kernel(z[1] - math.atan2(X[i, 1], X[i, 0]))
-        ll = cst - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
-                          + Rinv[1, 1] * r1 * r1)
-        u = ll + log_pt
-        hi = max(u, log_pf_vg)
-        v = hi + math.log(math.exp(u - hi) + math.exp(log_pf_vg - hi))
-        logw[i] = v
-        if v > mx:
-            mx = v
-    tot = 0.0
+        if logw[i] > mx:
+            mx = logw[i]
     for i in range(N):
         logw[i] = math.exp(logw[i] - mx)
-        tot += logw[i]
-    u0 = rng.random()
-    j = 0
-    cacc = logw[0]
+    systematic_indices_kernel(logw, rng.random(), idx)
     for i in range(N):
-        pos = (u0 + i) / N * tot
-        while pos >= cacc and j < N - 1:
-            j += 1
-            cacc += logw[j]
+        j = idx[i]
         for a in range(4):
             scratch[i, a] = X[j, a]
         mscratch[i] = modes[j]
@@ -336,31 +325,6 @@ def _polar_init(r, b, R, vstd, x, P):
 
 
 @nb.njit(cache=True)
-def _ekf_predict(x, P, F, Q):
-    n = 4
-    xn = np.zeros(n)
-    FP = np.zeros((n, n))
-    for a in range(n):
-        s = 0.0
-        for b in range(n):
-            s += F[a, b] * x[b]
-        xn[a] = s
-    for a in range(n):
-        for b in range(n):
-            s = 0.0
-            for c in range(n):
-                s += F[a, c] * P[c, b]
-            FP[a, b] = s
-    for a in range(n):
-        x[a] = xn[a]
-        for b in range(n):
-            s = Q[a, b]
-            for c in range(n):
-                s += FP[a, c] * F[b, c]
-            P[a, b] = s
-
-
-@nb.njit(cache=True)
 def _ekf_moments(x, P, R, zhat, S, H):
     r = math.sqrt(x[0] * x[0] + x[1] * x[1])
     zhat[0] = r
@@ -380,41 +344,6 @@ def _ekf_moments(x, P, R, zhat, S, H):
                 for d in range(2):
                     s += H[a, c] * P[c, d] * H[b, d]
             S[a, b] = s
-
-
-@nb.njit(cache=True)
-def _ekf_pda_update(x, P, z, zhat, S, H, beta):
-    """Single-measurement PDA update of the EKF: mean moved by ``beta K nu``,
-    covariance ``(1-beta) P + beta P_c + beta (1-beta) K nu nu^T K^T``."""
-    nu0 = z[0] - zhat[0]
-    nu1 = wrap_angle_kernel(z[1] - zhat[1])
-    det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
-    i00 = S[1, 1] / det
-    i01 = -S[0, 1] / det
-    i11 = S[0, 0] / det
-    PHt = np.zeros((4, 2))
-    for a in range(4):
-        for b in range(2):
-            s = 0.0
-            for c in range(2):
-                s += P[a, c] * H[b, c]
-            PHt[a, b] = s
-    K = np.zeros((4, 2))
-    for a in range(4):
-        K[a, 0] = PHt[a, 0] * i00 + PHt[a, 1] * i01
-        K[a, 1] = PHt[a, 0] * i01 + PHt[a, 1] * i11
-    Kn = np.zeros(4)
-    for a in range(4):
-        Kn[a] = K[a, 0] * nu0 + K[a, 1] * nu1
-    # K S K^T = PHt K^T
-    for a in range(4):
-        x[a] += beta * Kn[a]
-    for a in range(4):
-        for b in range(a, 4):
-            kskt = PHt[a, 0] * K[b, 0] + PHt[a, 1] * K[b, 1]
-            v = P[a, b] - beta * kskt + beta * (1.0 - beta) * Kn[a] * Kn[b]
-            P[a, b] = v
-            P[b, a] = v
 
 
 @nb.njit(cache=True)
@@ -446,6 +375,14 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, F_t, Q_t, R, rng,
     scratch = np.zeros((N, 4))
     mscratch = np.zeros(N, dtype=np.int64)
     logw = np.zeros(N)
+    ridx = np.zeros(N, dtype=np.int64)
+    xb = np.zeros(4)
+    Pb = np.zeros((4, 4))
+    zsel = np.zeros((1, 2))
+    bsel = np.zeros(1)
+    nu_b = np.zeros(2)
+    S_b = np.zeros((2, 2))
+    K_b = np.zeros((4, 2))
     zhat = np.zeros(2)
     S = np.zeros((2, 2))
     H = np.zeros((2, 4))
@@ -484,7 +421,7 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, F_t, Q_t, R, rng,
                 lpt = math.log(pts) if pts > 0.0 else -np.inf
                 lpf = math.log(pfs / VG) if pfs > 0.0 else -np.inf
                 _weight_resample(X, cM[t], Zs[js], Rinv, logdetR, lpt, lpf, logw,
-                                 scratch, mscratch, rng)
+                                 scratch, mscratch, ridx, rng)
         # duplicates and termination
         for t in range(NC):
             if not cact[t]:
@@ -511,7 +448,9 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, F_t, Q_t, R, rng,
         for t in range(NT):
             if not tact[t]:
                 continue
-            _ekf_predict(tx[t], tP[t], F_t, Q_t)
+            kf_predict_kernel(tx[t], tP[t], F_t, Q_t, xb, Pb)
+            tx[t, :] = xb
+            tP[t, :, :] = Pb
             ppred = pi11 * tp[t] + pi12 * (1.0 - tp[t])
             _ekf_moments(tx[t], tP[t], R, zhat, S, H)
             m, js, beta, delta, pts, pfs, VG, nds = _gate_and_select(
@@ -528,7 +467,14 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, F_t, Q_t, R, rng,
                     tact[t] = False
                     continue
                 selected[js] = True
-                _ekf_pda_update(tx[t], tP[t], Zs[js], zhat, S, H, beta)
+                # single-measurement PDA update of the EKF with beta^s
+                zsel[0, 0] = Zs[js, 0]
+                zsel[0, 1] = Zs[js, 1]
+                bsel[0] = beta
+                pda_update_kernel(tx[t], tP[t], zsel, zhat, H, R, bsel, 1.0 - beta, 1,
+                                  xb, Pb, nu_b, S_b, K_b)
+                tx[t, :] = xb
+                tP[t, :, :] = Pb
             if tp[t] >= p_conf:
                 slot = -1
                 for u in range(NC):

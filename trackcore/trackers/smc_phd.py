@@ -31,6 +31,7 @@ import numba as nb
 import numpy as np
 
 from ..core.validation import as_array, as_int, as_rng
+from ..filters.particle import systematic_indices_kernel
 from ..models.measurement import wrap_angle_kernel
 from .hpda_pf import TrackerRun, check_scans, jump_markov_propagate_kernel
 
@@ -163,6 +164,7 @@ def _phd_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_n, out
     prev = np.zeros((C, 4))
     n_prev = 0
     labels = np.zeros(cap, dtype=np.int64)
+    ridx = np.zeros(cap, dtype=np.int64)
     for k in range(K):
         # predict survivors
         if L > 0:
@@ -236,14 +238,9 @@ def _phd_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_n, out
             Lp = max(Nt * nr, Nt)
             if Lp > Lmax:
                 Lp = Lmax
-            u0 = rng.random()
-            j = 0
-            cacc = w[0]
+            systematic_indices_kernel(w[:L], rng.random(), ridx[:Lp])
             for i in range(Lp):
-                pos = (u0 + i) / Lp * Nhat
-                while pos >= cacc and j < L - 1:
-                    j += 1
-                    cacc += w[j]
+                j = ridx[i]
                 for a in range(4):
                     Xn[i, a] = X[j, a]
                 Mn[i] = M[j]
