@@ -133,3 +133,15 @@ def test_trial_runs_every_algorithm_and_delays():
         run_hpda_trial(np.random.default_rng(0), 1, ("kalman",))
     with pytest.raises(ValueError, match="unknown algorithm"):
         hpda_tracker_configs(hpda_parameters(1), foo={})
+
+
+def test_trial_scenario_overrides_change_only_amplitudes():
+    from trackcore.scenarios import run_hpda_trial
+    a = run_hpda_trial(np.random.default_rng(3), 2, ("phd",),
+                       overrides={"phd": {"n_per_target": 100, "n_birth": 50}})
+    b = run_hpda_trial(np.random.default_rng(3), 2, ("phd",),
+                       overrides={"phd": {"n_per_target": 100, "n_birth": 50}},
+                       scenario_overrides={"snr": 3.16})
+    # the detection pattern depends on P_D only, so the PHD (no amplitudes) is unchanged
+    np.testing.assert_array_equal(a["phd"]["aux"], b["phd"]["aux"])
+    assert a["n_measurements"] == b["n_measurements"]

@@ -289,14 +289,21 @@ def track_delays(run, truth: HpdaTruth, radius=500.0):
 
 
 def run_hpda_trial(rng, case, algorithms=("hpda", "phd", "clustering"), keep_estimates=False,
-                   overrides=None):
+                   overrides=None, scenario_overrides=None):
     """One Monte Carlo run of the paper's experiment: simulate the scans of
     environment ``case`` (variant-B truth) and run every tracker in
-    ``algorithms`` on them.  Random streams: ``rng.spawn(1 + len(algorithms))``
-    (data first).  Returns a dict ``{key: {"count", "aux", "conf_delay",
-    "term_delay", ["run"]}}`` plus ``"n_measurements"``."""
+    ``algorithms`` on them.  ``overrides`` maps algorithm keys to config
+    field overrides; ``scenario_overrides`` replaces fields of the
+    environment's :class:`HpdaParameters` (e.g. ``{"snr": 3.16}``) for both
+    the simulation and the trackers.  Random streams:
+    ``rng.spawn(1 + len(algorithms))`` (data first).  Returns a dict
+    ``{key: {"count", "aux", "conf_delay", "term_delay", ["run"]}}`` plus
+    ``"n_measurements"``."""
     rng = as_rng(rng)
     params = hpda_parameters(case)
+    if scenario_overrides:
+        from dataclasses import replace
+        params = replace(params, **scenario_overrides)
     truth = _TRUTH_CACHE.get("B")
     if truth is None:
         truth = _TRUTH_CACHE.setdefault("B", hpda_truth("B"))
