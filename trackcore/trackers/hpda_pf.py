@@ -42,7 +42,8 @@ from ..association.pda import pda_update_kernel
 from ..filters.kalman import kf_predict_kernel
 from ..filters.particle import systematic_indices_kernel
 from ..core.validation import as_array, as_int, as_rng
-from ..models.measurement import wrap_angle_kernel
+from ..models.measurement import (range_bearing_jacobian_kernel, range_bearing_kernel,
+                                  wrap_angle_kernel)
 
 __all__ = [
     "HpdaPfConfig",
@@ -325,18 +326,12 @@ def _polar_init(r, b, R, vstd, x, P):
 
 
 @nb.njit(cache=True)
-def _ekf_moments(x, P, R, zhat, S, H):
-    r = math.sqrt(x[0] * x[0] + x[1] * x[1])
-    zhat[0] = r
-    zhat[1] = math.atan2(x[1], x[0])
-    r2 = r * r
-    for a in range(2):
-        for b in range(4):
-            H[a, b] = 0.0
-    H[0, 0] = x[0] / r
-    H[0, 1] = x[1] / r
-    H[1, 0] = -x[1] / r2
-    H[1, 1] = x[0] / r2
+def _ekf_moments(X1, P, R, zhat, S, H3):
+    """Predicted range-bearing measurement, Jacobian (``H3[0]``) and
+    innovation covariance ``S = H P H^T + R`` of the EKF state ``X1`` (1, 4)."""
+    range_bearing_kernel(X1, 0.0, 0.0, zhat.reshape((1, 2)))
+    range_bearing_jacobian_kernel(X1, 0.0, 0.0, H3)
+    H = H3[0]
     for a in range(2):
         for b in range(2):
             s = R[a, b]
@@ -385,7 +380,7 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, F_t, Q_t, R, rng,
     K_b = np.zeros((4, 2))
     zhat = np.zeros(2)
     S = np.zeros((2, 2))
-    H = np.zeros((2, 4))
+    H3 = np.zeros((1, 2, 4))
     Lc = np.zeros((4, 4))
     mmax = 1
     for k in range(K):
@@ -452,7 +447,8 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, F_t, Q_t, R, rng,
             tx[t, :] = xb
             tP[t, :, :] = Pb
             ppred = pi11 * tp[t] + pi12 * (1.0 - tp[t])
-            _ekf_moments(tx[t], tP[t], R, zhat, S, H)
+            _ekf_moments(tx[t:t + 1], tP[t], R, zhat, S, H3)
+            H = H3[0]
             m, js, beta, delta, pts, pfs, VG, nds = _gate_and_select(
                 Zs, order, zhat, S, g2, pd, pg, c, lam_xy, rule, vidx, d2buf, ndens, pt, pf)
             den = 1.0 - delta * ppred
