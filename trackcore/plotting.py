@@ -15,10 +15,30 @@ __all__ = ["use_book_style", "BOOK_COLORS", "plot_rmse_vs_time", "plot_tracks_2d
 BOOK_COLORS = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#F0E442", "#000000")
 
 
+def _use_inline_backend_in_kernel() -> None:
+    """Inside a Jupyter kernel, draw figures inline whatever ``MPLBACKEND`` says.
+
+    With a non-interactive backend (e.g. ``MPLBACKEND=Agg`` in a CI shell) ``plt.show()``
+    would produce no output and the stored figures would no longer match a fresh run.
+    """
+    try:
+        from IPython import get_ipython
+    except ImportError:  # pragma: no cover - IPython is a dependency of the book
+        return
+    shell = get_ipython()
+    if shell is not None and getattr(shell, "kernel", None) is not None:
+        shell.run_line_magic("matplotlib", "inline")
+
+
 def use_book_style() -> None:
-    """Apply the book's matplotlib style (colour-blind-safe palette, readable sizes)."""
+    """Apply the book's matplotlib style (colour-blind-safe palette, readable sizes).
+
+    In a Jupyter kernel this also selects the inline backend, so notebooks render
+    their figures the same way on every machine.
+    """
     from cycler import cycler
 
+    _use_inline_backend_in_kernel()
     matplotlib.rcParams.update({
         "figure.figsize": (7.0, 4.2),
         "figure.dpi": 100,
