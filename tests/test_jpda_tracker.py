@@ -192,6 +192,31 @@ def test_scene_s2a_render_segment_track():
     assert m.tmr > 0.9 and m.crossing == "kept" and m.false_tracks == 0
 
 
+@pytest.mark.parametrize("name", ["S1", "S3"])
+def test_clutter_stays_a_separate_blob(name):
+    """Clutter beside a lane never touches a vehicle (>= 3 px between masks),
+    so segmentation gives the vehicle its own blob while the clutter is on."""
+    from scipy import ndimage
+    sc = render_scene(name, np.random.default_rng(7))
+    veh = np.nonzero(sc.is_vehicle)[0]
+    clutter = np.nonzero(~sc.is_vehicle)[0]
+    gaps = []
+    for k in range(sc.xy.shape[0]):
+        lab = sc.labels[N_WARMUP + k]
+        for i in veh:
+            if not sc.present[k, i]:
+                continue
+            dist = ndimage.distance_transform_cdt(lab != i + 1, metric="taxicab")
+            for c in clutter:
+                if sc.present[k, c]:
+                    gaps.append(dist[lab == c + 1].min() - 1)
+    assert len(gaps) > 10 and min(gaps) >= 3
+    dets_, _ = segment_scene(sc, "running_average")
+    both = [k for k in range(len(dets_)) if sc.visible[k, veh[0]] and sc.present[k, clutter].any()]
+    err = [np.hypot(*(dets_[k].z - sc.xy[k, veh[0]]).T).min() for k in both]
+    assert len(both) > 5 and np.median(err) < 1.0 and max(err) < 3.0
+
+
 def test_scene_names_and_bad_input():
     with pytest.raises(ValueError, match="name"):
         scene_layout("S9")

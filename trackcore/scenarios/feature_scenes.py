@@ -22,9 +22,10 @@ Scenes (``SCENES``):
 * ``"S4"``  combined: four vehicles, one crossing, one following pair, two bars
   and a foliage blob.
 
-The generator asserts that no two vehicle masks come closer than
-``MIN_VEHICLE_GAP`` px (so their blobs never merge); see the chapter for why
-this replaces the spec's box-overlap rule.
+The generator asserts that no vehicle mask comes closer than
+``MIN_VEHICLE_GAP`` px to another vehicle or to a clutter object (so their
+blobs never merge); see the chapter for why this replaces the spec's
+box-overlap rule.
 """
 from __future__ import annotations
 
@@ -115,8 +116,11 @@ def scene_layout(name):
     conflict, pair = -1, ()
     if name == "S1":
         veh("van", "van", 0.0, lambda k: (65.0 + 2.5 * k, _LANE_RIGHT))
-        bar("bar", 153.0, _LANE_RIGHT + 16.0, 20, 50)
-        foliage("foliage", 200.0, 94.0, 30, 60)
+        # the spec's 16 px beside the lane, cols 142-164: lying along the road (6 x 22), the
+        # bar stays 6 px clear of the van (upright, 22 x 6, it would overlap it by 2 rows)
+        bar("bar", 153.0, _LANE_RIGHT + 16.0, 20, 50, horizontal=True)
+        # foliage radius <= 7 (1 + 0.35) px: centred 21 px above the lane, >= 3 px clear
+        foliage("foliage", 200.0, _LANE_RIGHT - 21.0, 30, 60)
     elif name == "S2a":
         conflict, pair = 43, (0, 1)
         veh("sedan", "sedan", math.pi / 2, lambda k: (_LANE_UP, _LANE_RIGHT + 2.0 * (43 - k)))
@@ -133,7 +137,7 @@ def scene_layout(name):
         pair = (0, 1)
         veh("compact", "compact", 0.0, lambda k: (-9.0 + 2.5 * k, _LANE_LEFT))
         veh("sedan", "sedan", 0.0, lambda k: (-49.0 + 2.5 * k, _LANE_LEFT))
-        bar("bar", 60.0, _LANE_LEFT + 16.0, 10, 30)
+        bar("bar", 60.0, _LANE_LEFT + 16.0, 10, 30, horizontal=True)
     elif name == "S4":
         conflict, pair = 60, (0, 1)
         veh("sedan", "sedan", math.pi / 2, lambda k: (_LANE_UP, _LANE_RIGHT + 2.0 * (60 - k)))
@@ -161,7 +165,7 @@ def _check_gap(labels, la, lb, scene, na, nb, k):
     crop = labels[r0:r1, c0:c1]
     grown = ndimage.binary_dilation(crop == la, iterations=g)
     if np.any(grown & (crop == lb)):
-        raise AssertionError(f"{scene}: vehicles {na} and {nb} touch at frame {k}")
+        raise AssertionError(f"{scene}: {na} and {nb} touch at frame {k}")
 
 
 def render_scene(name, rng):
@@ -222,12 +226,14 @@ def render_scene(name, rng):
                 xy[k, i] = (cc.mean(), rr.mean())
                 present[k, i] = True
                 visible[k, i] = cnt == full_area[slot]
-            # vehicles never come within MIN_VEHICLE_GAP px of each other
+            # a vehicle never comes within MIN_VEHICLE_GAP px of another object (vehicle
+            # or clutter), so that every object is a separate blob
             vs = [i for i in idx if is_vehicle[i]]
-            for a in range(len(vs)):
-                for b in range(a + 1, len(vs)):
-                    _check_gap(out, vs[a] + 1, vs[b] + 1, name, objs[vs[a]]["name"],
-                               objs[vs[b]]["name"], k)
+            for a in vs:
+                for b in idx:
+                    if b == a or (is_vehicle[b] and b < a):
+                        continue
+                    _check_gap(out, a + 1, b + 1, name, objs[a]["name"], objs[b]["name"], k)
     return FeatureScene(name, frames, labels, xy, present, visible,
                         tuple(o["name"] for o in objs), is_vehicle, conflict, pair)
 
