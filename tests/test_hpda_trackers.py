@@ -204,3 +204,24 @@ def test_clustering_empty_and_bad_input():
     with pytest.raises(ValueError, match="eta"):
         clustering_run(np.zeros((0, 2)), np.zeros(2, dtype=np.int64), replace(cfg, eta=0),
                        np.random.default_rng())
+
+
+def test_clustering_roi_window_spans_eta_plus_one_scans():
+    # Text (sec 2.2): chains run from scan k - eta to scan k (eta + 1 scans) and an ROI needs more
+    # than P_D * eta measurements.  A fixed point seen in two of every three scans (no clutter) then
+    # forms an ROI at every scan and is confirmed and kept; with a window of only eta = 2 scans
+    # (needing 2 of 2) consecutive ROIs never share a measurement and no track is ever born.
+    K = 40
+    keep = np.array([k % 3 != 2 for k in range(K)])
+    counts = keep.astype(np.int64)
+    off = np.zeros(K + 1, dtype=np.int64)
+    np.cumsum(counts, out=off[1:])
+    z = np.tile([5000.0, 0.3], (int(off[-1]), 1))
+    cfg = ClusteringConfig(pd=0.9, clutter_density_xy=3e-8, n_particles=200)
+    out = clustering_run(z, off, cfg, np.random.default_rng(3))
+    born = np.nonzero(out.count > 0)[0]
+    assert born.size and born[0] <= 4
+    assert np.all(out.count[born[0]:] == 1)
+    assert len(np.unique(out.ids[out.ids >= 0])) == 1
+    k = K - 1
+    assert abs(np.hypot(*out.estimates[k, 0, :2]) - 5000.0) < 100.0
