@@ -126,20 +126,24 @@ def _enumerate_kernel(logf, valid, log_pd, log_1mpd, nonparametric, logV):
 
 
 @nb.njit(cache=True)
-def _list_events_kernel(valid, n_events):
-    """All feasible events as an (n_events, T) array: row e, column t holds the
-    0-based index of the measurement assigned to target t, or -1 for a miss."""
+def _walk_events(valid, out):
+    """Depth-first walk over the feasible events of ``valid``; returns their count.
+
+    When ``out`` has rows, row e receives event e: column t holds the 0-based index
+    of the measurement assigned to target t, or -1 for a miss (``out`` must be
+    pre-filled with -1).  With a zero-row ``out`` it only counts."""
     m, T = valid.shape
-    out = np.full((n_events, T), -1, np.int64)
+    store = out.shape[0] > 0
     choice = np.full(max(m, 1), -1, np.int64)
     used = np.zeros(T, np.bool_)
     e = 0
     j = 0
     while j >= 0:
         if j == m:
-            for jj in range(m):
-                if choice[jj] >= 1:
-                    out[e, choice[jj] - 1] = jj
+            if store:
+                for jj in range(m):
+                    if choice[jj] >= 1:
+                        out[e, choice[jj] - 1] = jj
             e += 1
             j -= 1
             continue
@@ -159,38 +163,20 @@ def _list_events_kernel(valid, n_events):
         j += 1
         if j < m:
             choice[j] = -1
+    return e
+
+
+@nb.njit(cache=True)
+def _list_events_kernel(valid, n_events):
+    """All feasible events as an (n_events, T) array (see :func:`_walk_events`)."""
+    out = np.full((n_events, valid.shape[1]), -1, np.int64)
+    _walk_events(valid, out)
     return out
 
 
 @nb.njit(cache=True)
 def _count_kernel(valid):
-    m, T = valid.shape
-    choice = np.full(max(m, 1), -1, np.int64)
-    used = np.zeros(T, np.bool_)
-    n = 0
-    j = 0
-    while j >= 0:
-        if j == m:
-            n += 1
-            j -= 1
-            continue
-        c = choice[j]
-        if c >= 1:
-            used[c - 1] = False
-        c += 1
-        while c >= 1 and c <= T and ((not valid[j, c - 1]) or used[c - 1]):
-            c += 1
-        if c > T:
-            choice[j] = -1
-            j -= 1
-            continue
-        choice[j] = c
-        if c >= 1:
-            used[c - 1] = True
-        j += 1
-        if j < m:
-            choice[j] = -1
-    return n
+    return _walk_events(valid, np.empty((0, valid.shape[1]), np.int64))
 
 
 def _check_valid(valid, name="valid"):
