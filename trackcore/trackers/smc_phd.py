@@ -32,8 +32,9 @@ import numpy as np
 
 from ..core.validation import as_array, as_int, as_rng
 from ..filters.particle import systematic_indices_kernel
-from ..models.measurement import wrap_angle_kernel
+from ..models.measurement import range_bearing_kernel
 from .hpda_pf import TrackerRun, check_scans, jump_markov_propagate_kernel
+from .smc_phd_step import phd_range_bearing_update_kernel
 
 __all__ = ["SmcPhdConfig", "smc_phd_run", "kmeans_extract_kernel"]
 
@@ -152,8 +153,7 @@ def _phd_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_n, out
     w = np.zeros(cap)
     Xn = np.zeros((cap, 4))
     Mn = np.zeros(cap, dtype=np.int64)
-    hr = np.zeros(cap)
-    hb = np.zeros(cap)
+    H = np.zeros((cap, 2))
     fac = np.zeros(cap)
     L = 0
     i00 = 1.0 / R[0, 0]
@@ -193,44 +193,13 @@ def _phd_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_n, out
         # update
         a0, a1 = off[k], off[k + 1]
         m = a1 - a0
-        for i in range(L):
-            hr[i] = math.sqrt(X[i, 0] * X[i, 0] + X[i, 1] * X[i, 1])
-            hb[i] = math.atan2(X[i, 1], X[i, 0])
-            fac[i] = 1.0 - pd
+        range_bearing_kernel(X[:L], 0.0, 0.0, H[:L])
         zmass = np.zeros(m)
+        kap = np.empty(m)
         for jj in range(m):
-            j = a0 + jj
-            zr, zb = Z[j, 0], Z[j, 1]
-            Cz = 0.0
-            for i in range(L):
-                dr = zr - hr[i]
-                d2 = dr * dr * i00
-                if d2 > 60.0:
-                    continue
-                db = wrap_angle_kernel(zb - hb[i])
-                d2 += db * db * i11
-                if d2 > 60.0:
-                    continue
-                Cz += pd * gnorm * math.exp(-0.5 * d2) * w[i]
-            kap = lam_xy * zr
-            den = kap + Cz
-            if Cz <= 0.0:
-                continue
-            zmass[jj] = Cz / den
-            for i in range(L):
-                dr = zr - hr[i]
-                d2 = dr * dr * i00
-                if d2 > 60.0:
-                    continue
-                db = wrap_angle_kernel(zb - hb[i])
-                d2 += db * db * i11
-                if d2 > 60.0:
-                    continue
-                fac[i] += pd * gnorm * math.exp(-0.5 * d2) / den
-        Nhat = 0.0
-        for i in range(L):
-            w[i] *= fac[i]
-            Nhat += w[i]
+            kap[jj] = lam_xy * Z[a0 + jj, 0]
+        Nhat = phd_range_bearing_update_kernel(H[:L], w[:L], Z[a0:a1], kap, pd, i00, i11, gnorm,
+                                               60.0, fac[:L], zmass)
         out_aux[k] = Nhat
         # resample: L' = max(N round(Nhat), N), mass preserving
         if L > 0 and Nhat > 0.0:

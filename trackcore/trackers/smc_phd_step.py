@@ -1,0 +1,445 @@
+"""Step-level SMC-PHD filter (Vo, Singh & Doucet 2005) for a linear-Gaussian
+motion model, a Gaussian birth density and a range-bearing sensor.
+
+This is the configuration Stone Soup's ``SMCPHDPredictor`` (``'expansion'``
+birth scheme) and ``SMCPHDUpdater`` implement, so the two can be run on the
+same inputs (``benchmarks/bench_phd.py``, ``tests/test_smc_phd_stonesoup.py``).
+One scan:
+
+* predict: survivors ``x' = F x + w``, ``w ~ N(0, Q)``, weights times
+  ``P_S``; then ``n_birth`` particles drawn from ``N(birth_mean,
+  birth_cov)`` with weight ``birth_rate / n_birth`` each, appended (the
+  birth intensity's total mass is ``birth_rate``, the expected number of new
+  targets per scan);
+* update (:func:`phd_range_bearing_update_kernel`, shared with
+  :func:`trackcore.trackers.smc_phd_run`)
+
+      w_i <- [1 - P_D + sum_z P_D g(z|x_i) / (kappa(z) + C(z))] w_i,
+      C(z) = sum_j P_D g(z|x_j) w_j,
+
+  ``g = N(z; h(x), R)``, ``h = (range, bearing)`` from the sensor, bearing
+  innovation wrapped to (-pi, pi], ``R`` diagonal; the cardinality estimate
+  is ``N_hat = sum_i w_i``;
+* resample ``n_out`` particles systematically in proportion to the weights,
+  each with weight ``N_hat / n_out`` (mass preserving).
+
+Weights are linear (PHD weights are ``O(N_hat / n)`` after every
+resampling, far from underflow).  Likelihood terms with a normalised squared
+innovation above ``gate`` (default 60, i.e. below ``exp(-30)`` of the peak)
+are skipped; ``gate=inf`` evaluates every pair.
+
+Random draws per scan, in order: the survivors' process noise (``k``
+standard normals per particle, particle by particle, as
+:func:`trackcore.filters.propagate_linear_kernel`), the births' ``k_b``
+standard normals per particle, then one uniform for the resampling offset
+(none when ``N_hat = 0``).
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numba as nb
+import numpy as np
+
+from ..core.validation import (as_array, as_int, as_measurements, as_nonnegative,
+                               as_probability, as_rng, as_scalar, as_square_matrix, as_vector)
+from ..filters.particle import noise_factor, propagate_linear_kernel, systematic_indices_kernel
+from ..models.measurement import range_bearing_kernel, wrap_angle_kernel
+
+__all__ = [
+    "SmcPhdModel",
+    "SmcPhdUpdate",
+    "SmcPhdStep",
+    "SmcPhdFilterRun",
+    "smc_phd_model",
+    "smc_phd_update",
+    "smc_phd_step",
+    "smc_phd_filter",
+    "phd_range_bearing_update_kernel",
+    "smc_phd_step_kernel",
+]
+
+#: default gate on the normalised squared innovation (terms below exp(-30) of the peak skipped)
+DEFAULT_GATE = 60.0
+
+
+# --------------------------------------------------------------------------
+# kernels
+# --------------------------------------------------------------------------
+@nb.njit(cache=True)
+def phd_range_bearing_update_kernel(H, w, Z, kappa, pd, i00, i11, gnorm, gate2, fac, zmass):
+    """PHD weight update in place for a range-bearing sensor with diagonal
+    ``R = diag(1 / i00, 1 / i11)``.
+
+    ``H`` ``(L, 2)``: predicted (range, bearing) of each particle; ``w``
+    ``(L,)`` weights (overwritten by the updated ones); ``Z`` ``(m, 2)``
+    measurements; ``kappa`` ``(m,)`` clutter intensity at each measurement
+    (per unit of range x bearing); ``gnorm = 1 / (2 pi sqrt(|R|))``; pairs with
+    ``d^2 > gate2`` are skipped.  Work array ``fac`` ``(L,)``; ``zmass``
+    ``(m,)`` receives ``C(z) / (kappa(z) + C(z))``, the posterior probability
+    that ``z`` came from a target (0 when ``C(z)`` underflows).  Returns
+    ``N_hat``, the updated total mass."""
+    L = H.shape[0]
+    m = Z.shape[0]
+    for i in range(L):
+        fac[i] = 1.0 - pd
+    for jj in range(m):
+        zr, zb = Z[jj, 0], Z[jj, 1]
+        zmass[jj] = 0.0
+        Cz = 0.0
+        for i in range(L):
+            dr = zr - H[i, 0]
+            d2 = dr * dr * i00
+            if d2 > gate2:
+                continue
+            db = zb - H[i, 1]
+            if not (-math.pi < db <= math.pi):
+                db = wrap_angle_kernel(db)
+            d2 += db * db * i11
+            if d2 > gate2:
+                continue
+            Cz += pd * gnorm * math.exp(-0.5 * d2) * w[i]
+        den = kappa[jj] + Cz
+        if Cz <= 0.0:
+            continue
+        zmass[jj] = Cz / den
+        for i in range(L):
+            dr = zr - H[i, 0]
+            d2 = dr * dr * i00
+            if d2 > gate2:
+                continue
+            db = zb - H[i, 1]
+            if not (-math.pi < db <= math.pi):
+                db = wrap_angle_kernel(db)
+            d2 += db * db * i11
+            if d2 > gate2:
+                continue
+            fac[i] += pd * gnorm * math.exp(-0.5 * d2) / den
+    Nhat = 0.0
+    for i in range(L):
+        w[i] *= fac[i]
+        Nhat += w[i]
+    return Nhat
+
+
+@nb.njit(cache=True)
+def smc_phd_step_kernel(X, w, n, Z, kappa, F, L, ps, birth_mean, birth_L, n_birth, birth_rate,
+                        pd, i00, i11, gnorm, gate2, sx, sy, rng, Xout, wout, H, fac, zmass, ridx):
+    """One SMC-PHD scan (predict, Gaussian birth, update, resample).
+
+    ``X`` ``(cap, n_x)`` holds the ``n`` prior particles in its first rows and
+    ``w`` ``(cap,)`` their weights, ``cap >= n + n_birth``; both are used as
+    work space.  ``F`` ``(n_x, n_x)``, ``L`` ``(n_x, k)`` the process-noise
+    factor (``Q = L L^T``), ``birth_L`` ``(n_x, k_b)`` the birth-covariance
+    factor.  The ``n_out = len(wout)`` resampled particles go to ``Xout``
+    (``(n_out, n_x)``) with weights ``N_hat / n_out`` (all 0 and the
+    predicted particles in order, cycling, when ``N_hat = 0``).  Work arrays:
+    ``H`` ``(cap, 2)``, ``fac`` ``(cap,)``, ``zmass`` ``(m,)``, ``ridx``
+    ``(n_out,)`` int64.  Returns ``N_hat``."""
+    nx = X.shape[1]
+    if n > 0:
+        propagate_linear_kernel(X[:n], F, L, rng, X[:n])
+        for i in range(n):
+            w[i] *= ps
+    if n_birth > 0:
+        for i in range(n, n + n_birth):
+            for a in range(nx):
+                X[i, a] = birth_mean[a]
+        eye = np.eye(nx)
+        propagate_linear_kernel(X[n:n + n_birth], eye, birth_L, rng, X[n:n + n_birth])
+        wb = birth_rate / n_birth
+        for i in range(n, n + n_birth):
+            w[i] = wb
+    Lt = n + n_birth
+    range_bearing_kernel(X[:Lt], sx, sy, H[:Lt])
+    Nhat = phd_range_bearing_update_kernel(H[:Lt], w[:Lt], Z, kappa, pd, i00, i11, gnorm,
+                                           gate2, fac[:Lt], zmass)
+    n_out = wout.shape[0]
+    if Nhat > 0.0:
+        systematic_indices_kernel(w[:Lt], rng.random(), ridx)
+        wo = Nhat / n_out
+        for i in range(n_out):
+            j = ridx[i]
+            for a in range(nx):
+                Xout[i, a] = X[j, a]
+            wout[i] = wo
+    else:
+        for i in range(n_out):
+            j = i % Lt if Lt > 0 else 0
+            for a in range(nx):
+                Xout[i, a] = X[j, a] if Lt > 0 else birth_mean[a]
+            wout[i] = 0.0
+    return Nhat
+
+
+@nb.njit(cache=True)
+def _filter_kernel(X0, w0, Z, off, kappa_const, F, L, ps, birth_mean, birth_L, n_birth,
+                   birth_rate, pd, i00, i11, gnorm, gate2, sx, sy, rng, n_out, card):
+    nx = X0.shape[1]
+    n = X0.shape[0]
+    cap = max(n, n_out) + n_birth
+    X = np.zeros((cap, nx))
+    w = np.zeros(cap)
+    for i in range(n):
+        w[i] = w0[i]
+        for a in range(nx):
+            X[i, a] = X0[i, a]
+    Xo = np.zeros((n_out, nx))
+    wo = np.zeros(n_out)
+    H = np.zeros((cap, 2))
+    fac = np.zeros(cap)
+    ridx = np.zeros(n_out, dtype=np.int64)
+    K = off.shape[0] - 1
+    mmax = 0
+    for k in range(K):
+        mmax = max(mmax, off[k + 1] - off[k])
+    zmass = np.zeros(mmax)
+    kappa = np.full(mmax, kappa_const)
+    for k in range(K):
+        a0, a1 = off[k], off[k + 1]
+        m = a1 - a0
+        card[k] = smc_phd_step_kernel(X, w, n, Z[a0:a1], kappa[:m], F, L, ps, birth_mean,
+                                      birth_L, n_birth, birth_rate, pd, i00, i11, gnorm, gate2,
+                                      sx, sy, rng, Xo, wo, H, fac, zmass[:m], ridx)
+        for i in range(n_out):
+            w[i] = wo[i]
+            for a in range(nx):
+                X[i, a] = Xo[i, a]
+        n = n_out
+    return Xo, wo
+
+
+# --------------------------------------------------------------------------
+# public API
+# --------------------------------------------------------------------------
+class SmcPhdModel(NamedTuple):
+    """Validated SMC-PHD model (build with :func:`smc_phd_model`)."""
+
+    F: np.ndarray
+    L: np.ndarray
+    R: np.ndarray
+    pd: float
+    ps: float
+    clutter_intensity: float
+    birth_mean: np.ndarray
+    birth_L: np.ndarray
+    n_birth: int
+    birth_rate: float
+    sensor: tuple
+    gate: float
+
+
+class SmcPhdUpdate(NamedTuple):
+    """Result of :func:`smc_phd_update`."""
+
+    w: np.ndarray
+    cardinality: float
+    measurement_mass: np.ndarray
+
+
+class SmcPhdStep(NamedTuple):
+    """Result of :func:`smc_phd_step`: the resampled particles and weights,
+    ``cardinality = N_hat`` (sum of the updated weights) and per measurement
+    ``C(z) / (kappa(z) + C(z))``."""
+
+    particles: np.ndarray
+    w: np.ndarray
+    cardinality: float
+    measurement_mass: np.ndarray
+
+
+class SmcPhdFilterRun(NamedTuple):
+    """Result of :func:`smc_phd_filter`: ``cardinality`` ``(K,)`` per scan and
+    the final particles and weights."""
+
+    cardinality: np.ndarray
+    particles: np.ndarray
+    w: np.ndarray
+
+
+def _diag_R(R):
+    R = as_square_matrix(R, "R", 2)
+    if R[0, 1] != 0.0 or R[1, 0] != 0.0:
+        raise ValueError("R must be diagonal (range and bearing noise independent)")
+    if not (R[0, 0] > 0.0 and R[1, 1] > 0.0):
+        raise ValueError(f"R must have positive diagonal entries, got {np.diag(R)}")
+    return R
+
+
+def _rb_constants(R):
+    i00 = 1.0 / R[0, 0]
+    i11 = 1.0 / R[1, 1]
+    gnorm = 1.0 / (2.0 * math.pi * math.sqrt(R[0, 0] * R[1, 1]))
+    return i00, i11, gnorm
+
+
+def _gate(gate):
+    g = as_scalar(gate, "gate", finite=False)
+    if not g > 0.0:
+        raise ValueError(f"gate must be > 0 (may be inf), got {g}")
+    return g
+
+
+def _sensor_xy(sensor):
+    s = as_vector(sensor, "sensor", 2)
+    return float(s[0]), float(s[1])
+
+
+def smc_phd_model(F, Q, R, *, pd, ps, clutter_intensity, birth_mean, birth_cov, n_birth,
+                  birth_rate, sensor=(0.0, 0.0), gate=DEFAULT_GATE) -> SmcPhdModel:
+    """Validate an SMC-PHD model once: motion ``x' = F x + w``, ``w ~ N(0, Q)``
+    (``Q`` PSD, factored by :func:`trackcore.filters.noise_factor`);
+    range-bearing measurement noise ``R`` (2x2, diagonal: ``[sigma_r^2,
+    sigma_theta^2]``); detection and survival probabilities ``pd`` (in
+    (0, 1]) and ``ps``; constant clutter intensity ``clutter_intensity``
+    (> 0, expected clutter count per unit of range x bearing: ``lambda / V``);
+    Gaussian birth density ``N(birth_mean, birth_cov)`` sampled with
+    ``n_birth`` particles per scan of total weight ``birth_rate``; sensor
+    position; likelihood gate (see the module docstring)."""
+    F = as_square_matrix(F, "F")
+    nx = F.shape[0]
+    if nx < 2:
+        raise ValueError(f"F must be at least 2x2 (state [x, y, ...]), got {F.shape}")
+    L = noise_factor(Q, "Q")
+    if L.shape[0] != nx:
+        raise ValueError(f"Q must be ({nx}, {nx}), got {np.shape(Q)}")
+    R = _diag_R(R)
+    pd = as_probability(pd, "pd", open_low=True)
+    ps = as_probability(ps, "ps")
+    kap = as_scalar(clutter_intensity, "clutter_intensity")
+    if not kap > 0.0:
+        raise ValueError(f"clutter_intensity must be > 0, got {kap}")
+    bm = as_vector(birth_mean, "birth_mean", nx)
+    bL = noise_factor(birth_cov, "birth_cov")
+    if bL.shape[0] != nx:
+        raise ValueError(f"birth_cov must be ({nx}, {nx}), got {np.shape(birth_cov)}")
+    nb_ = as_int(n_birth, "n_birth", minimum=0)
+    br = as_nonnegative(birth_rate, "birth_rate")
+    if nb_ == 0 and br > 0:
+        raise ValueError("n_birth must be >= 1 when birth_rate > 0")
+    return SmcPhdModel(F, np.ascontiguousarray(L), R, pd, ps, kap, bm, np.ascontiguousarray(bL),
+                       nb_, br, _sensor_xy(sensor), _gate(gate))
+
+
+def _particles_weights(particles, w, nx=None):
+    X = as_array(particles, "particles", ndim=2)
+    if nx is not None and X.shape[1] != nx:
+        raise ValueError(f"particles must have shape (N, {nx}), got {X.shape}")
+    if X.shape[1] < 2:
+        raise ValueError(f"particles must have at least 2 columns, got {X.shape}")
+    W = as_array(w, "w", ndim=1)
+    if W.shape[0] != X.shape[0]:
+        raise ValueError(f"w must have shape ({X.shape[0]},), got {W.shape}")
+    if np.any(W < 0):
+        raise ValueError("w must be non-negative")
+    return X, W
+
+
+def smc_phd_update(particles, w, z, R, pd, clutter_intensity, *, sensor=(0.0, 0.0),
+                   gate=DEFAULT_GATE) -> SmcPhdUpdate:
+    """PHD update of predicted particles ``(N, n)`` (``[x, y, ...]``) with
+    linear weights ``w`` ``(N,)`` by the range-bearing scan ``z`` ``(m, 2)``
+    (``m = 0`` allowed: every weight times ``1 - pd``).  ``R`` diagonal 2x2;
+    ``clutter_intensity`` a scalar or ``(m,)`` array of ``kappa(z)`` (> 0).
+    Returns :class:`SmcPhdUpdate` (new weight array, ``N_hat = sum w``, per
+    measurement ``C(z) / (kappa(z) + C(z))``)."""
+    X, W = _particles_weights(particles, w)
+    Z = as_measurements(z, "z", 2)
+    R = _diag_R(R)
+    pd = as_probability(pd, "pd", open_low=True)
+    m = Z.shape[0]
+    kap = np.asarray(clutter_intensity)
+    if kap.ndim == 0:
+        kap = np.full(m, as_scalar(clutter_intensity, "clutter_intensity"))
+    else:
+        kap = as_array(clutter_intensity, "clutter_intensity", shape=(m,))
+    if np.any(~(kap > 0.0)):
+        raise ValueError("clutter_intensity must be > 0")
+    sx, sy = _sensor_xy(sensor)
+    gate2 = _gate(gate)
+    N = X.shape[0]
+    H = np.empty((N, 2))
+    range_bearing_kernel(X, sx, sy, H)
+    W = W.copy()
+    zmass = np.zeros(m)
+    nhat = phd_range_bearing_update_kernel(H, W, Z, kap, pd, *_rb_constants(R), gate2,
+                                           np.empty(N), zmass)
+    return SmcPhdUpdate(W, float(nhat), zmass)
+
+
+def _check_model(model):
+    if not isinstance(model, SmcPhdModel):
+        raise TypeError(f"model must be an SmcPhdModel (see smc_phd_model), got "
+                        f"{type(model).__name__}")
+    return model
+
+
+def smc_phd_step(particles, w, z, model: SmcPhdModel, rng, *, n_out=None) -> SmcPhdStep:
+    """One SMC-PHD scan: predict the prior particles ``(N, n)`` with linear
+    weights ``w`` ``(N,)`` (``N = 0`` allowed: births only), add the Gaussian
+    births, update with the range-bearing scan ``z`` ``(m, 2)`` (``m = 0``
+    allowed) and resample ``n_out`` particles (default ``N``).  ``model`` from
+    :func:`smc_phd_model`; ``rng`` a ``numpy.random.Generator`` (draw order in
+    the module docstring).  Returns :class:`SmcPhdStep` (new arrays)."""
+    mdl = _check_model(model)
+    rng = as_rng(rng)
+    nx = mdl.F.shape[0]
+    X, W = _particles_weights(particles, w, nx)
+    Z = as_measurements(z, "z", 2)
+    N = X.shape[0]
+    n_out = N if n_out is None else as_int(n_out, "n_out", minimum=1)
+    if n_out < 1:
+        raise ValueError("n_out must be >= 1 (particles is empty: pass n_out)")
+    if N + mdl.n_birth == 0:
+        raise ValueError("particles is empty and model.n_birth is 0: nothing to propagate")
+    cap = N + mdl.n_birth
+    Xw = np.empty((cap, nx))
+    Xw[:N] = X
+    ww = np.empty(cap)
+    ww[:N] = W
+    m = Z.shape[0]
+    Xo = np.empty((n_out, nx))
+    wo = np.empty(n_out)
+    zmass = np.zeros(m)
+    i00, i11, gnorm = _rb_constants(mdl.R)
+    nhat = smc_phd_step_kernel(Xw, ww, N, Z, np.full(m, mdl.clutter_intensity), mdl.F, mdl.L,
+                               mdl.ps, mdl.birth_mean, mdl.birth_L, mdl.n_birth, mdl.birth_rate,
+                               mdl.pd, i00, i11, gnorm, mdl.gate, mdl.sensor[0], mdl.sensor[1],
+                               rng, Xo, wo, np.empty((cap, 2)), np.empty(cap), zmass,
+                               np.empty(n_out, dtype=np.int64))
+    return SmcPhdStep(Xo, wo, float(nhat), zmass)
+
+
+def smc_phd_filter(particles, w, z, offsets, model: SmcPhdModel, rng, *,
+                   n_out=None) -> SmcPhdFilterRun:
+    """Run :func:`smc_phd_step` over a whole run of scans in one kernel
+    (identical results and draws): ``z`` ``(M, 2)`` all scans concatenated,
+    ``offsets`` ``(K + 1,)`` (scan ``k`` is ``z[offsets[k]:offsets[k+1]]``).
+    Returns :class:`SmcPhdFilterRun` (``N_hat`` per scan, final particles)."""
+    mdl = _check_model(model)
+    rng = as_rng(rng)
+    nx = mdl.F.shape[0]
+    X, W = _particles_weights(particles, w, nx)
+    Z = as_measurements(z, "z", 2)
+    off = np.asarray(offsets)
+    if off.ndim != 1 or off.size < 1 or not np.issubdtype(off.dtype, np.integer):
+        raise ValueError("offsets must be a 1-D integer array of length K + 1")
+    off = np.ascontiguousarray(off, dtype=np.int64)
+    if off[0] != 0 or off[-1] != Z.shape[0] or np.any(np.diff(off) < 0):
+        raise ValueError("offsets must start at 0, be non-decreasing and end at len(z)")
+    N = X.shape[0]
+    n_out = N if n_out is None else as_int(n_out, "n_out", minimum=1)
+    if n_out < 1:
+        raise ValueError("n_out must be >= 1 (particles is empty: pass n_out)")
+    if N + mdl.n_birth == 0:
+        raise ValueError("particles is empty and model.n_birth is 0: nothing to propagate")
+    card = np.zeros(off.shape[0] - 1)
+    i00, i11, gnorm = _rb_constants(mdl.R)
+    if off.shape[0] == 1:
+        return SmcPhdFilterRun(card, X.copy(), W.copy())
+    Xo, wo = _filter_kernel(X, W, Z, off, mdl.clutter_intensity, mdl.F, mdl.L, mdl.ps,
+                            mdl.birth_mean, mdl.birth_L, mdl.n_birth, mdl.birth_rate, mdl.pd,
+                            i00, i11, gnorm, mdl.gate, mdl.sensor[0], mdl.sensor[1], rng, n_out,
+                            card)
+    return SmcPhdFilterRun(card, Xo, wo)
