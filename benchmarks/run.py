@@ -4,7 +4,7 @@
     python -m benchmarks.run kf imm     # a subset (other rows kept; each row records when
                                         # and at which commit it was measured)
 
-Workloads: kf, imm, pf, jpda, hpda, roofline.
+Workloads: kf, imm, pf, phd, jpda, hpda, roofline.
 
 Each workload runs trackcore and its peer (filterpy or Stone Soup) on the same inputs in
 the same process, checks that they agree, and records the median process CPU time per step
@@ -30,11 +30,12 @@ RESULTS = Path(__file__).resolve().parent / "results" / "benchmarks.json"
 
 
 def _workloads():
-    from . import bench_association, bench_filters, bench_pf, roofline
+    from . import bench_association, bench_filters, bench_pf, bench_phd, roofline
     items = {
         "kf": bench_filters.bench_kf,
         "imm": bench_filters.bench_imm,
         "pf": bench_pf.bench_pf,
+        "phd": bench_phd.bench_phd,
     }
     items.update(bench_association.WORKLOADS)
     return items, roofline.run
