@@ -45,6 +45,23 @@ def test_tsi_and_confirmation_timeline():
     assert np.allclose(tr.x[2:], [2.0, 0.5], atol=0.3)    # CV state [x, y, vx, vy]
 
 
+def test_tsi_feature_ablation_pairs_only_similar_shapes():
+    """tsi_feature=True (spec section 9 ablation): a TSI pair needs
+    rho(z_p, z_c) >= c_I; the default pairs on distance alone."""
+    for tsi_feature, expect in ((False, ["tentative"]), (True, [])):
+        trk = JPDATracker(JPDATrackerConfig(variant="FJPDA", tsi_feature=tsi_feature))
+        trk.step(dets([[50, 100]], [VAN]))
+        rep = trk.step(dets([[52, 100]], [BAR]))      # within r, different shape
+        assert [s.status for s in rep.tracks] == expect
+    # the unpaired bar replaces the previous set and pairs with a second bar
+    rep = trk.step(dets([[54, 100]], [BAR]))
+    assert [s.status for s in rep.tracks] == ["tentative"]
+    trk = JPDATracker(JPDATrackerConfig(variant="FJPDA", tsi_feature=True))
+    trk.step(dets([[50, 100]], [VAN]))
+    rep = trk.step(dets([[52, 100]], [VAN]))          # same shape: paired
+    assert [s.status for s in rep.tracks] == ["tentative"]
+
+
 def test_tsi_respects_max_speed_radius():
     trk = JPDATracker(JPDATrackerConfig(variant="JPDA"))
     trk.step(dets([[50, 100]]))
@@ -249,9 +266,26 @@ def test_metrics_perfect_swap_and_false_track():
                               (7, "confirmed", 200.0, 200.0)] for k in range(K)])
     m = scene_metrics(sc, swapped)
     assert m.crossing == "swap" and m.id_switches == 2 and m.false_tracks == 1
+    assert m.false_sources == (("other", 1),)
     assert m.tmr == pytest.approx((27 * 2) / (57 * 2))
     ids, _ = match_tracks(xy, present, swapped)
     assert ids[0, 0] == 1 and ids[40, 0] == 2
+
+
+def test_false_tracks_attributed_to_nearest_clutter_object():
+    sc = render_scene("S1", np.random.default_rng(6))
+    bar = sc.names.index("bar")
+    van = sc.names.index("van")
+    K = sc.xy.shape[0]
+    on_bar = [k for k in range(K) if sc.present[k, bar]]
+    reps = _fake_reports([[(1, "confirmed", *sc.xy[k, van])]
+                          + ([(2, "confirmed", sc.xy[k, bar, 0] + 2.0, sc.xy[k, bar, 1])]
+                             if k in on_bar else [])
+                          + ([(3, "memory", 5.0, 5.0)] if 10 <= k < 14 else [])
+                          for k in range(K)])
+    m = scene_metrics(sc, reps)
+    assert m.false_tracks == 2 and m.false_sources == (("bar", 1), ("other", 1))
+    assert m.tmr == 1.0
 
 
 def test_wilson_interval():
@@ -298,3 +332,17 @@ def test_scene_trial_runs_variants_on_shared_detections():
     # reproducible from the generator (all but the wall-clock association time)
     assert {k: m._replace(assoc_ms=0.0) for k, m in t2.metrics.items()} == \
         {k: m._replace(assoc_ms=0.0) for k, m in t.metrics.items()}
+
+
+def test_scene_trials_share_one_rendering_across_segmentations():
+    from trackcore.scenarios.feature_metrics import scene_trial, scene_trials
+    cfgs = {"JPDA": JPDATrackerConfig(variant="JPDA")}
+    both = scene_trials(np.random.default_rng(7), "S1",
+                        {"vibe": cfgs, "running_average": cfgs})
+    for method in ("vibe", "running_average"):
+        one = scene_trial(np.random.default_rng(7), "S1", cfgs, method=method)
+        assert one.metrics["JPDA"]._replace(assoc_ms=0.0) == \
+            both[method].metrics["JPDA"]._replace(assoc_ms=0.0)
+        assert np.array_equal(one.truth_xy, both[method].truth_xy, equal_nan=True)
+    with pytest.raises(ValueError, match="variants_by_method"):
+        scene_trials(np.random.default_rng(7), "S1", {})

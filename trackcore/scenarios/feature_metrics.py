@@ -10,7 +10,10 @@ tracks, gated at ``match_gate`` (10 px).  From the matches:
   frame if matched to its primary track.  TMR = maintained / eligible;
 * coverage: as TMR, any matched track counts;
 * false tracks: tracks that were confirmed and matched to no vehicle in at
-  least half of their confirmed (confirmed or memory) frames;
+  least half of their confirmed (confirmed or memory) frames; each is
+  attributed to the clutter object (bar, foliage) nearest to it, within
+  ``match_gate``, in most of those frames, else to ``"other"`` (speckle,
+  fragments);
 * CLEAR-MOT ID switches, fragmentations, MOTA and MOTP;
 * crossing outcome (kept / swap / break) 10 frames either side of a conflict;
 * follower: frames from the follower's full entry until it has its own
@@ -24,7 +27,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 __all__ = ["SceneMetrics", "match_tracks", "scene_metrics", "wilson_interval", "vehicle_mask_iou",
-           "SceneTrial", "scene_trial"]
+           "SceneTrial", "scene_trial", "scene_trials"]
 
 _REPORTED = ("confirmed", "memory")
 
@@ -45,6 +48,7 @@ class SceneMetrics(NamedTuple):
     max_events: int
     valid_removed: float     # share of kinematic validation entries removed by the feature gate
     assoc_ms: float          # mean association time per frame
+    false_sources: tuple = ()  # ((source name, false tracks), ...) sorted by name
 
     @property
     def tmr(self):
@@ -136,6 +140,7 @@ def scene_metrics(scene, reports, match_gate=10.0):
                     matched_frames[s.tid] = matched_frames.get(s.tid, 0) + 1
     false_ids = [t for t, nf in conf_frames.items() if matched_frames.get(t, 0) < 0.5 * nf]
     false_frames = sum(conf_frames[t] for t in false_ids)
+    false_sources = _false_track_sources(scene, reports, set(false_ids), match_gate)
     # MOTA / MOTP over present vehicles
     gt = int(present.sum())
     fn = int((present & (ids < 0)).sum())
@@ -182,7 +187,33 @@ def scene_metrics(scene, reports, match_gate=10.0):
     return SceneMetrics(tmr_num, tmr_den, cov, len(false_ids), false_frames, idsw, frag,
                         float(mota), motp, crossing, follower_delay, float(ev.mean()),
                         int(ev.max()), (vk - vv) / vk if vk else 0.0,
-                        float(np.mean([r.assoc_ms for r in reports])))
+                        float(np.mean([r.assoc_ms for r in reports])), false_sources)
+
+
+def _false_track_sources(scene, reports, false_ids, match_gate):
+    """Attribute each false track to the clutter object nearest to it (within
+    ``match_gate``) in most of its reported frames, else to ``"other"``."""
+    if not false_ids:
+        return ()
+    clutter = np.nonzero(~np.asarray(scene.is_vehicle))[0]
+    votes = {t: {} for t in false_ids}
+    for k, rep in enumerate(reports):
+        for s in rep.tracks:
+            if s.tid not in votes or s.status not in _REPORTED:
+                continue
+            src = "other"
+            if len(clutter):
+                c = scene.xy[k, clutter]
+                d = np.hypot(c[:, 0] - s.x, c[:, 1] - s.y)
+                ok = scene.present[k, clutter] & (d <= match_gate)
+                if ok.any():
+                    src = scene.names[clutter[np.argmin(np.where(ok, d, np.inf))]]
+            votes[s.tid][src] = votes[s.tid].get(src, 0) + 1
+    counts = {}
+    for v in votes.values():
+        best = max(sorted(v), key=v.get)
+        counts[best] = counts.get(best, 0) + 1
+    return tuple(sorted(counts.items()))
 
 
 def vehicle_mask_iou(scene, masks, margin=3):
@@ -219,15 +250,31 @@ def scene_trial(rng, scene_name, variants, method="vibe"):
     """Render ``scene_name`` with ``rng``, segment it once, and run every
     tracker configuration of ``variants`` (label -> JPDATrackerConfig) on the
     same detections."""
+    return scene_trials(rng, scene_name, {method: variants})[method]
+
+
+def scene_trials(rng, scene_name, variants_by_method):
+    """Render ``scene_name`` once with ``rng`` and, for every segmentation
+    method of ``variants_by_method`` (method -> {label -> JPDATrackerConfig}),
+    segment the same frames and run that method's tracker configurations.
+    Methods run in the dict's order and share ``rng`` (only ``"vibe"`` draws
+    from it), so ``{"vibe": v, "running_average": w}["vibe"]`` equals
+    ``scene_trial(rng, scene_name, v, "vibe")``.  Returns
+    ``{method: SceneTrial}``."""
     from ..trackers.jpda_tracker import run_jpda_tracker
     from .feature_scenes import render_scene, segment_scene
+    if not isinstance(variants_by_method, dict) or not variants_by_method:
+        raise ValueError("variants_by_method must be a non-empty dict method -> variants")
     scene = render_scene(scene_name, rng)
-    dets, _ = segment_scene(scene, method, rng)
     veh = np.nonzero(scene.is_vehicle)[0]
-    metrics, positions = {}, {}
-    for label, cfg in variants.items():
-        reps = run_jpda_tracker(dets, cfg)
-        metrics[label] = scene_metrics(scene, reps)
-        positions[label] = [np.array([[s.x, s.y] for s in r.tracks if s.status in _REPORTED])
-                            .reshape(-1, 2) for r in reps]
-    return SceneTrial(scene.xy[:, veh], scene.present[:, veh], metrics, positions)
+    out = {}
+    for method, variants in variants_by_method.items():
+        dets, _ = segment_scene(scene, method, rng)
+        metrics, positions = {}, {}
+        for label, cfg in variants.items():
+            reps = run_jpda_tracker(dets, cfg)
+            metrics[label] = scene_metrics(scene, reps)
+            positions[label] = [np.array([[s.x, s.y] for s in r.tracks if s.status in _REPORTED])
+                                .reshape(-1, 2) for r in reps]
+        out[method] = SceneTrial(scene.xy[:, veh], scene.present[:, veh], metrics, positions)
+    return out

@@ -150,17 +150,19 @@ def scene_layout(name):
     return objs, K, conflict, pair
 
 
-def _check_gap(labels, la, lb, scene, na, nb, k):
-    ra, ca = np.nonzero(labels == la)
-    rb, cb = np.nonzero(labels == lb)
-    if len(ra) == 0 or len(rb) == 0:
+def _check_gap(labels, boxes, la, lb, scene, na, nb, k):
+    """Raise if the masks of labels ``la`` and ``lb`` come within
+    ``MIN_VEHICLE_GAP`` px; ``boxes`` is ``ndimage.find_objects(labels)``."""
+    if la > len(boxes) or lb > len(boxes) or boxes[la - 1] is None or boxes[lb - 1] is None:
         return
+    (sa_r, sa_c), (sb_r, sb_c) = boxes[la - 1], boxes[lb - 1]
     g = MIN_VEHICLE_GAP
-    if (ra.min() - g > rb.max() or rb.min() - g > ra.max()
-            or ca.min() - g > cb.max() or cb.min() - g > ca.max()):
+    # boxes are half-open: the last row of a is sa_r.stop - 1
+    if (sa_r.start - g > sb_r.stop - 1 or sb_r.start - g > sa_r.stop - 1
+            or sa_c.start - g > sb_c.stop - 1 or sb_c.start - g > sa_c.stop - 1):
         return
-    r0, r1 = min(ra.min(), rb.min()) - g, max(ra.max(), rb.max()) + g + 1
-    c0, c1 = min(ca.min(), cb.min()) - g, max(ca.max(), cb.max()) + g + 1
+    r0, r1 = min(sa_r.start, sb_r.start) - g, max(sa_r.stop, sb_r.stop) + g
+    c0, c1 = min(sa_c.start, sb_c.start) - g, max(sa_c.stop, sb_c.stop) + g
     r0, c0 = max(r0, 0), max(c0, 0)
     crop = labels[r0:r1, c0:c1]
     grown = ndimage.binary_dilation(crop == la, iterations=g)
@@ -217,12 +219,16 @@ def render_scene(name, rng):
             out[lab == slot + 1] = i + 1
         labels[f] = out
         if k >= 0:
+            # per-object bounding boxes once per frame (full-frame scans dominated the cost)
+            boxes = ndimage.find_objects(out)
             for slot, i in enumerate(idx):
-                pix = out == i + 1
-                cnt = int(pix.sum())
-                if cnt == 0:
+                if i >= len(boxes) or boxes[i] is None:
                     continue
-                rr, cc = np.nonzero(pix)
+                sr, sc = boxes[i]
+                rr, cc = np.nonzero(out[sr, sc] == i + 1)
+                cnt = len(rr)
+                rr = rr + sr.start
+                cc = cc + sc.start
                 xy[k, i] = (cc.mean(), rr.mean())
                 present[k, i] = True
                 visible[k, i] = cnt == full_area[slot]
@@ -233,7 +239,8 @@ def render_scene(name, rng):
                 for b in idx:
                     if b == a or (is_vehicle[b] and b < a):
                         continue
-                    _check_gap(out, a + 1, b + 1, name, objs[a]["name"], objs[b]["name"], k)
+                    _check_gap(out, boxes, a + 1, b + 1, name, objs[a]["name"],
+                               objs[b]["name"], k)
     return FeatureScene(name, frames, labels, xy, present, visible,
                         tuple(o["name"] for o in objs), is_vehicle, conflict, pair)
 
