@@ -155,6 +155,8 @@ def _phd_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_n, out
     Mn = np.zeros(cap, dtype=np.int64)
     H = np.zeros((cap, 2))
     fac = np.zeros(cap)
+    gidx = np.zeros(cap, dtype=np.int64)
+    gval = np.zeros(cap)
     L = 0
     i00 = 1.0 / R[0, 0]
     i11 = 1.0 / R[1, 1]
@@ -199,7 +201,7 @@ def _phd_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_n, out
         for jj in range(m):
             kap[jj] = lam_xy * Z[a0 + jj, 0]
         Nhat = phd_range_bearing_update_kernel(H[:L], w[:L], Z[a0:a1], kap, pd, i00, i11, gnorm,
-                                               60.0, fac[:L], zmass)
+                                               60.0, fac[:L], zmass, gidx, gval)
         out_aux[k] = Nhat
         # resample: L' = max(N round(Nhat), N), mass preserving
         if L > 0 and Nhat > 0.0:

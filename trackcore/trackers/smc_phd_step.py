@@ -68,7 +68,8 @@ DEFAULT_GATE = 60.0
 # kernels
 # --------------------------------------------------------------------------
 @nb.njit(cache=True)
-def phd_range_bearing_update_kernel(H, w, Z, kappa, pd, i00, i11, gnorm, gate2, fac, zmass):
+def phd_range_bearing_update_kernel(H, w, Z, kappa, pd, i00, i11, gnorm, gate2, fac, zmass,
+                                    gidx, gval):
     """PHD weight update in place for a range-bearing sensor with diagonal
     ``R = diag(1 / i00, 1 / i11)``.
 
@@ -76,9 +77,12 @@ def phd_range_bearing_update_kernel(H, w, Z, kappa, pd, i00, i11, gnorm, gate2, 
     ``(L,)`` weights (overwritten by the updated ones); ``Z`` ``(m, 2)``
     measurements; ``kappa`` ``(m,)`` clutter intensity at each measurement
     (per unit of range x bearing); ``gnorm = 1 / (2 pi sqrt(|R|))``; pairs with
-    ``d^2 > gate2`` are skipped.  Work array ``fac`` ``(L,)``; ``zmass``
-    ``(m,)`` receives ``C(z) / (kappa(z) + C(z))``, the posterior probability
-    that ``z`` came from a target (0 when ``C(z)`` underflows).  Returns
+    ``d^2 > gate2`` are skipped (range part tested first).  ``zmass`` ``(m,)``
+    receives ``C(z) / (kappa(z) + C(z))``, the posterior probability that
+    ``z`` came from a target (0 when ``C(z)`` underflows).  Work arrays
+    ``fac`` ``(L,)`` float64, ``gidx`` ``(L,)`` int64 and ``gval`` ``(L,)``
+    float64 (the gated particles of one measurement and their
+    ``exp(-d^2 / 2)``, so the second pass visits only those).  Returns
     ``N_hat``, the updated total mass."""
     L = H.shape[0]
     m = Z.shape[0]
@@ -88,6 +92,7 @@ def phd_range_bearing_update_kernel(H, w, Z, kappa, pd, i00, i11, gnorm, gate2, 
         zr, zb = Z[jj, 0], Z[jj, 1]
         zmass[jj] = 0.0
         Cz = 0.0
+        cnt = 0
         for i in range(L):
             dr = zr - H[i, 0]
             d2 = dr * dr * i00
@@ -99,23 +104,17 @@ def phd_range_bearing_update_kernel(H, w, Z, kappa, pd, i00, i11, gnorm, gate2, 
             d2 += db * db * i11
             if d2 > gate2:
                 continue
-            Cz += pd * gnorm * math.exp(-0.5 * d2) * w[i]
+            e = math.exp(-0.5 * d2)
+            Cz += pd * gnorm * e * w[i]
+            gidx[cnt] = i
+            gval[cnt] = e
+            cnt += 1
         den = kappa[jj] + Cz
         if Cz <= 0.0:
             continue
         zmass[jj] = Cz / den
-        for i in range(L):
-            dr = zr - H[i, 0]
-            d2 = dr * dr * i00
-            if d2 > gate2:
-                continue
-            db = zb - H[i, 1]
-            if not (-math.pi < db <= math.pi):
-                db = wrap_angle_kernel(db)
-            d2 += db * db * i11
-            if d2 > gate2:
-                continue
-            fac[i] += pd * gnorm * math.exp(-0.5 * d2) / den
+        for q in range(cnt):
+            fac[gidx[q]] += pd * gnorm * gval[q] / den
     Nhat = 0.0
     for i in range(L):
         w[i] *= fac[i]
@@ -125,7 +124,8 @@ def phd_range_bearing_update_kernel(H, w, Z, kappa, pd, i00, i11, gnorm, gate2, 
 
 @nb.njit(cache=True)
 def smc_phd_step_kernel(X, w, n, Z, kappa, F, L, ps, birth_mean, birth_L, n_birth, birth_rate,
-                        pd, i00, i11, gnorm, gate2, sx, sy, rng, Xout, wout, H, fac, zmass, ridx):
+                        pd, i00, i11, gnorm, gate2, sx, sy, rng, Xout, wout, H, fac, zmass, ridx,
+                        gidx, gval):
     """One SMC-PHD scan (predict, Gaussian birth, update, resample).
 
     ``X`` ``(cap, n_x)`` holds the ``n`` prior particles in its first rows and
@@ -136,7 +136,8 @@ def smc_phd_step_kernel(X, w, n, Z, kappa, F, L, ps, birth_mean, birth_L, n_birt
     (``(n_out, n_x)``) with weights ``N_hat / n_out`` (all 0 and the
     predicted particles in order, cycling, when ``N_hat = 0``).  Work arrays:
     ``H`` ``(cap, 2)``, ``fac`` ``(cap,)``, ``zmass`` ``(m,)``, ``ridx``
-    ``(n_out,)`` int64.  Returns ``N_hat``."""
+    ``(n_out,)`` int64, ``gidx`` ``(cap,)`` int64, ``gval`` ``(cap,)``.
+    Returns ``N_hat``."""
     nx = X.shape[1]
     if n > 0:
         propagate_linear_kernel(X[:n], F, L, rng, X[:n])
@@ -154,7 +155,7 @@ def smc_phd_step_kernel(X, w, n, Z, kappa, F, L, ps, birth_mean, birth_L, n_birt
     Lt = n + n_birth
     range_bearing_kernel(X[:Lt], sx, sy, H[:Lt])
     Nhat = phd_range_bearing_update_kernel(H[:Lt], w[:Lt], Z, kappa, pd, i00, i11, gnorm,
-                                           gate2, fac[:Lt], zmass)
+                                           gate2, fac[:Lt], zmass, gidx, gval)
     n_out = wout.shape[0]
     if Nhat > 0.0:
         systematic_indices_kernel(w[:Lt], rng.random(), ridx)
@@ -185,11 +186,13 @@ def _filter_kernel(X0, w0, Z, off, kappa_const, F, L, ps, birth_mean, birth_L, n
         w[i] = w0[i]
         for a in range(nx):
             X[i, a] = X0[i, a]
-    Xo = np.zeros((n_out, nx))
-    wo = np.zeros(n_out)
+    Xo = np.zeros((cap, nx))   # the two buffers swap roles every scan (no copy back)
+    wo = np.zeros(cap)
     H = np.zeros((cap, 2))
     fac = np.zeros(cap)
     ridx = np.zeros(n_out, dtype=np.int64)
+    gidx = np.zeros(cap, dtype=np.int64)
+    gval = np.zeros(cap)
     K = off.shape[0] - 1
     mmax = 0
     for k in range(K):
@@ -201,13 +204,12 @@ def _filter_kernel(X0, w0, Z, off, kappa_const, F, L, ps, birth_mean, birth_L, n
         m = a1 - a0
         card[k] = smc_phd_step_kernel(X, w, n, Z[a0:a1], kappa[:m], F, L, ps, birth_mean,
                                       birth_L, n_birth, birth_rate, pd, i00, i11, gnorm, gate2,
-                                      sx, sy, rng, Xo, wo, H, fac, zmass[:m], ridx)
-        for i in range(n_out):
-            w[i] = wo[i]
-            for a in range(nx):
-                X[i, a] = Xo[i, a]
+                                      sx, sy, rng, Xo[:n_out], wo[:n_out], H, fac, zmass[:m],
+                                      ridx, gidx, gval)
+        X, Xo = Xo, X
+        w, wo = wo, w
         n = n_out
-    return Xo, wo
+    return X[:n_out].copy(), w[:n_out].copy()
 
 
 # --------------------------------------------------------------------------
@@ -322,16 +324,24 @@ def smc_phd_model(F, Q, R, *, pd, ps, clutter_intensity, birth_mean, birth_cov, 
                        nb_, br, _sensor_xy(sensor), _gate(gate))
 
 
+def _plain(x, ndim):
+    """Already what the kernels take (C-contiguous float64, finite): skip the full checks."""
+    return (type(x) is np.ndarray and x.dtype == np.float64 and x.ndim == ndim
+            and x.flags.c_contiguous and math.isfinite(x.sum()))
+
+
 def _particles_weights(particles, w, nx=None):
-    X = as_array(particles, "particles", ndim=2)
+    # each argument takes a cheap path when it is already a plain finite float64 array;
+    # anything else goes through the full checks (which convert or raise the usual errors)
+    X = particles if _plain(particles, 2) else as_array(particles, "particles", ndim=2)
     if nx is not None and X.shape[1] != nx:
         raise ValueError(f"particles must have shape (N, {nx}), got {X.shape}")
     if X.shape[1] < 2:
         raise ValueError(f"particles must have at least 2 columns, got {X.shape}")
-    W = as_array(w, "w", ndim=1)
+    W = w if _plain(w, 1) else as_array(w, "w", ndim=1)
     if W.shape[0] != X.shape[0]:
         raise ValueError(f"w must have shape ({X.shape[0]},), got {W.shape}")
-    if np.any(W < 0):
+    if W.size and W.min() < 0:
         raise ValueError("w must be non-negative")
     return X, W
 
@@ -364,7 +374,8 @@ def smc_phd_update(particles, w, z, R, pd, clutter_intensity, *, sensor=(0.0, 0.
     W = W.copy()
     zmass = np.zeros(m)
     nhat = phd_range_bearing_update_kernel(H, W, Z, kap, pd, *_rb_constants(R), gate2,
-                                           np.empty(N), zmass)
+                                           np.empty(N), zmass, np.empty(N, dtype=np.int64),
+                                           np.empty(N))
     return SmcPhdUpdate(W, float(nhat), zmass)
 
 
@@ -386,7 +397,7 @@ def smc_phd_step(particles, w, z, model: SmcPhdModel, rng, *, n_out=None) -> Smc
     rng = as_rng(rng)
     nx = mdl.F.shape[0]
     X, W = _particles_weights(particles, w, nx)
-    Z = as_measurements(z, "z", 2)
+    Z = z if (_plain(z, 2) and z.shape[1] == 2) else as_measurements(z, "z", 2)
     N = X.shape[0]
     n_out = N if n_out is None else as_int(n_out, "n_out", minimum=1)
     if n_out < 1:
@@ -407,7 +418,8 @@ def smc_phd_step(particles, w, z, model: SmcPhdModel, rng, *, n_out=None) -> Smc
                                mdl.ps, mdl.birth_mean, mdl.birth_L, mdl.n_birth, mdl.birth_rate,
                                mdl.pd, i00, i11, gnorm, mdl.gate, mdl.sensor[0], mdl.sensor[1],
                                rng, Xo, wo, np.empty((cap, 2)), np.empty(cap), zmass,
-                               np.empty(n_out, dtype=np.int64))
+                               np.empty(n_out, dtype=np.int64), np.empty(cap, dtype=np.int64),
+                               np.empty(cap))
     return SmcPhdStep(Xo, wo, float(nhat), zmass)
 
 
@@ -437,7 +449,7 @@ def smc_phd_filter(particles, w, z, offsets, model: SmcPhdModel, rng, *,
     card = np.zeros(off.shape[0] - 1)
     i00, i11, gnorm = _rb_constants(mdl.R)
     if off.shape[0] == 1:
-        return SmcPhdFilterRun(card, X.copy(), W.copy())
+        return SmcPhdFilterRun(card, X.copy(), W.copy())  # no scans: the prior, unchanged
     Xo, wo = _filter_kernel(X, W, Z, off, mdl.clutter_intensity, mdl.F, mdl.L, mdl.ps,
                             mdl.birth_mean, mdl.birth_L, mdl.n_birth, mdl.birth_rate, mdl.pd,
                             i00, i11, gnorm, mdl.gate, mdl.sensor[0], mdl.sensor[1], rng, n_out,
