@@ -408,3 +408,27 @@ def test_step_and_filter_bad_input():
     with pytest.raises(ValueError, match="offsets"):
         smc_phd_filter(X, w, np.zeros((2, 2)), np.array([0, 2, 1, 2]), mdl,
                        np.random.default_rng())
+
+
+# --------------------------------------------------------------------------
+# property: N_hat = (1 - P_D) sum w + sum_z C(z) / (kappa(z) + C(z)), each mass in [0, 1]
+# --------------------------------------------------------------------------
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), m=st.integers(0, 12), pd=st.floats(0.05, 1.0),
+       log_kappa=st.floats(-12.0, 2.0), gate=st.sampled_from([60.0, np.inf]))
+def test_update_mass_identity(seed, m, pd, log_kappa, gate):
+    rng = np.random.default_rng(seed)
+    N = int(rng.integers(1, 400))
+    X = np.column_stack([rng.uniform(-3000, 3000, (N, 2)), rng.normal(0, 5, (N, 2))])
+    w = rng.uniform(0, 2, N) / N
+    Z = np.column_stack([rng.uniform(10, 4500, m), rng.uniform(-np.pi, np.pi, m)])
+    out = smc_phd_update(X, w, Z, R, pd, math.exp(log_kappa), gate=gate)
+    assert np.all(np.isfinite(out.w)) and np.all(out.w >= (1 - pd) * w * (1 - 1e-15))
+    assert np.all((out.measurement_mass >= 0) & (out.measurement_mass <= 1))
+    assert out.cardinality == pytest.approx((1 - pd) * w.sum() + out.measurement_mass.sum(),
+                                            rel=1e-10, abs=1e-300)
+    assert out.cardinality == pytest.approx(out.w.sum(), rel=1e-12)

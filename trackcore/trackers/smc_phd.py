@@ -9,7 +9,9 @@ update
     C(z) = sum_j P_D g(z|x_j) w_j,
 
 with ``g = N(z; h(x), R)`` in polar coordinates and ``kappa(z) = lambda_xy
-r_z`` the clutter intensity per (m rad); resample ``L = max(N round(N_hat),
+r_z`` the clutter intensity per (m rad) (the update is
+:func:`~trackcore.trackers.smc_phd_step.phd_range_bearing_update_kernel`,
+shared with the step-level API); resample ``L = max(N round(N_hat),
 N)`` particles systematically with weights ``N_hat / L`` (mass preserving);
 extract up to ``round(N_hat)`` point estimates by gated k-means over particle
 positions, initialised from the previous centres and then from the current
