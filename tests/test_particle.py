@@ -10,7 +10,8 @@ from scipy import stats
 
 from trackcore.filters.particle import (
     bootstrap_step, effective_sample_size, loglik_gaussian_position, loglik_range_bearing,
-    multinomial_resample, noise_factor, propagate_linear, residual_resample, resample_particles,
+    multinomial_resample, noise_factor, propagate_linear, propagate_linear_kernel,
+    residual_resample, resample_particles,
     stratified_indices_kernel, stratified_resample, systematic_indices_kernel,
     systematic_resample, weighted_mean_cov)
 
@@ -70,6 +71,33 @@ def test_propagate_matches_numpy_reference_and_is_deterministic():
     propagate_linear(Y, F, None, np.random.default_rng(5), noise_factor=L, out=Y)
     np.testing.assert_array_equal(Y, out1)
     assert np.array_equal(X, np.random.default_rng(1).standard_normal((50, 4)))  # input untouched
+
+
+@pytest.mark.parametrize("k", [0, 1, 2, 3, 4])
+def test_propagate_simd_path_gives_the_scalar_bits(k):
+    """n = 4 with k in {2, 4} on C-contiguous arrays takes a flat loop that LLVM vectorises
+    across particles; it must give exactly the bits of the scalar per-particle loop (taken
+    by Fortran-ordered arrays) and of the left-to-right sums written out in Python."""
+    rng = np.random.default_rng(3)
+    N = 1001
+    X = rng.standard_normal((N, 4)) * [1e3, 1e3, 10.0, 10.0]
+    F = rng.standard_normal((4, 4))
+    L = rng.standard_normal((4, k))
+    fast = np.empty_like(X)
+    propagate_linear_kernel(X, F, L, np.random.default_rng(7), fast)
+    slow = np.empty((N, 4), order="F")
+    propagate_linear_kernel(np.asfortranarray(X), F, L, np.random.default_rng(7), slow)
+    assert np.array_equal(fast, slow)
+    inplace = X.copy()
+    propagate_linear_kernel(inplace, F, L, np.random.default_rng(7), inplace)
+    assert np.array_equal(fast, inplace)
+    W = np.random.default_rng(7).standard_normal((N, k))
+    for i in (0, 1, 500, N - 1):
+        for a in range(4):
+            s = F[a, 0] * X[i, 0] + F[a, 1] * X[i, 1] + F[a, 2] * X[i, 2] + F[a, 3] * X[i, 3]
+            for c in range(k):
+                s += L[a, c] * W[i, c]
+            assert fast[i, a] == s
 
 
 def test_propagate_noise_covariance():
@@ -475,6 +503,8 @@ def test_bootstrap_step_bad_input():
         bootstrap_step(X, lw, F, np.ones((4, 5)), [1.0, 0.0], np.eye(2), rng)
     with pytest.raises(ValueError, match="scratch"):
         bootstrap_step(X, lw, F, L, [1.0, 0.0], np.eye(2), rng, scratch=np.empty((4, 4)))
+    with pytest.raises(ValueError, match="scratch must not overlap"):
+        bootstrap_step(X, lw, F, L, [1.0, 0.0], np.eye(2), rng, scratch=X)
 
 
 def test_bootstrap_step_fast_validation_paths():
