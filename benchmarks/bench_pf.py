@@ -16,6 +16,7 @@ so they must agree to Monte Carlo tolerance, not bit for bit.
 from __future__ import annotations
 
 import datetime
+import math
 import time
 from statistics import median
 
@@ -26,7 +27,7 @@ from trackcore.filters import (MODEL_RANGE_BEARING, bootstrap_step, bootstrap_st
                                noise_factor)
 from trackcore.models import cv_process_noise, cv_transition, range_bearing
 
-from ._common import Stopwatch, record
+from ._common import Stopwatch, median_time, record
 
 T = 1.0
 Q_PSD = 0.5          # CWNA power spectral density (Stone Soup's ConstantVelocity noise_diff_coeff)
@@ -155,6 +156,55 @@ def run_stonesoup(N: int, seed: int = 0):
     return sw.cpu / N_STEPS, sw.wall / N_STEPS, est
 
 
+@nb.njit(cache=True)
+def _floor_op(op, x, y, out):
+    """One elementary operation of the bootstrap step over arrays (see :func:`roofline_floor`)."""
+    n = x.shape[0]
+    if op == 0:
+        for i in range(n):
+            out[i] = math.atan2(y[i], x[i])
+    elif op == 1:
+        for i in range(n):
+            out[i] = math.sqrt(x[i] * x[i] + y[i] * y[i])
+    else:
+        for i in range(n):
+            out[i] = math.exp(-y[i])
+
+
+@nb.njit(cache=True)
+def _floor_draws(rng, out):
+    for i in range(out.shape[0]):
+        out[i] = rng.standard_normal()
+
+
+def roofline_floor(k: int = 4, m: int = 1 << 18) -> dict:
+    """The elementary-operation floor of one bootstrap step, per particle, on this core now.
+
+    Each step needs per particle ``k`` standard-normal draws (process noise; ``k = 4`` for the
+    full-rank CWNA noise), one square root and one arctangent (predicted range and bearing)
+    and one exponential (normalising the weights; systematic resampling every step needs no
+    logarithm).  Each is timed alone in a numba loop over ``m`` values (median of 7, process
+    CPU time), the arctangent and square root on positions like the benchmark's (around
+    (1000, 2000) m), the exponential on log-weight differences in [0, 30].  Arithmetic and
+    memory traffic come on top, so no kernel reaches this floor; the ``trackcore_kernel`` rows
+    store it with ``fraction_of_floor`` = floor / measured time per particle.
+    """
+    rng = np.random.default_rng(7)
+    x = 1000.0 + 20.0 * rng.standard_normal(m)
+    y = 2000.0 + 20.0 * rng.standard_normal(m)
+    d = 30.0 * rng.random(m)
+    out = np.empty(m)
+    ns = {}
+    for name, op, b in (("atan2", 0, y), ("sqrt", 1, y), ("exp", 2, d)):
+        _floor_op(op, x, b, out)
+        ns[name] = median_time(lambda: _floor_op(op, x, b, out), repeat=7) / m * 1e9
+    _floor_draws(rng, out)
+    ns["normal_draw"] = median_time(lambda: _floor_draws(rng, out), repeat=7) / m * 1e9
+    counts = {"normal_draw": k, "atan2": 1, "sqrt": 1, "exp": 1}
+    return {"ns_per_op": ns, "ops_per_particle": counts,
+            "ns_per_particle": sum(counts[o] * ns[o] for o in counts)}
+
+
 def _two_process_worker(N, repeats):
     """Runs in a worker process: the kernel-level filter ``repeats`` times; returns
     (wall start, wall stop, CPU seconds) of the timed part."""
@@ -186,9 +236,13 @@ def two_core_throughput(N: int = 100000, repeats: int = 3) -> dict:
 
 
 def bench_pf(sizes=(1000, 10000, 100000), repeats=5) -> list[dict]:
+    """Rows per size and path (median CPU time per step over interleaved repetitions: 3x
+    ``repeats`` below N = 1e5, where a repetition is cheap), the ``trackcore_kernel`` rows with
+    the :func:`roofline_floor` measured in the same loop, and the two-process throughput."""
     out = []
+    k = noise_factor(_scenario(0)[1]).shape[1]
     for N in sizes:
-        reps = repeats
+        reps = repeats if N >= 100000 else 3 * repeats
         names = ["trackcore_kernel", "trackcore", "stonesoup"]
         if N >= 20000:
             names.append("trackcore_threads")
@@ -198,7 +252,9 @@ def bench_pf(sizes=(1000, 10000, 100000), repeats=5) -> list[dict]:
         run_trackcore(min(N, 1000))
         run_trackcore(min(N, 1000), parallel=True)
         ests = {}
+        floors = []
         for _ in range(reps):                  # interleaved: all paths see the same load
+            floors.append(roofline_floor(k, m=1 << 16))
             for name in names:
                 if name == "stonesoup":
                     c, w, e = run_stonesoup(N)
@@ -222,10 +278,18 @@ def bench_pf(sizes=(1000, 10000, 100000), repeats=5) -> list[dict]:
         if abs(rmse_ours - rmse_peer) > tol:
             raise AssertionError(f"PF N={N}: RMSE trackcore {rmse_ours:.2f} vs Stone Soup {rmse_peer:.2f}")
         common = {"rmse_trackcore": rmse_ours, "rmse_stonesoup": rmse_peer, "steps": N_STEPS}
+        fl = {"ops_per_particle": floors[0]["ops_per_particle"],
+              "ns_per_op": {o: median(f["ns_per_op"][o] for f in floors)
+                            for o in floors[0]["ns_per_op"]},
+              "ns_per_particle": median(f["ns_per_particle"] for f in floors)}
         for name in names:
             t = median(cpu[name])
+            extra = {}
+            if name == "trackcore_kernel":
+                extra = {"floor": fl, "floor_ns_per_particle": fl["ns_per_particle"],
+                         "fraction_of_floor": fl["ns_per_particle"] / (t / N * 1e9)}
             out.append(record("bootstrap_pf", name, N, t, ns_per_particle=t / N * 1e9,
-                              trials=sorted(cpu[name]), wall=wall[name], **common))
+                              trials=sorted(cpu[name]), wall=wall[name], **common, **extra))
     tp = two_core_throughput()
     out.append(record("bootstrap_pf_two_processes", "trackcore_kernel", tp["particles"],
                       tp["cpu_seconds"] / tp["steps"], **tp))
