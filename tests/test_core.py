@@ -216,3 +216,18 @@ def test_generator_usable_inside_numba_kernel():
     b = np.random.default_rng(7).standard_normal(5)
     np.testing.assert_array_equal(a, b)
     assert core.make_rng(7).standard_normal() == np.random.default_rng(np.random.SeedSequence(7)).standard_normal()
+
+
+def test_as_offsets():
+    from trackcore.core import as_offsets
+    off = as_offsets([0, 2, 2, 5], 5)
+    assert off.dtype == np.int64 and off.flags.c_contiguous and off.tolist() == [0, 2, 2, 5]
+    assert as_offsets(np.array([0]), 0).tolist() == [0]          # K = 0 scans
+    with pytest.raises(ValueError, match="scans.offsets must be a 1-D integer array"):
+        as_offsets([0], 0, "scans.offsets", min_scans=1)
+    for bad in ([0.0, 5.0], [[0, 5]], []):
+        with pytest.raises(ValueError, match="offsets must be a 1-D integer array"):
+            as_offsets(bad, 5)
+    for bad in ([1, 5], [0, 4], [0, 3, 2, 5]):
+        with pytest.raises(ValueError, match=r"offsets must start at 0.*\(5\)"):
+            as_offsets(bad, 5)

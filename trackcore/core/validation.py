@@ -26,6 +26,7 @@ __all__ = [
     "as_int",
     "as_rng",
     "as_bool_matrix",
+    "as_offsets",
 ]
 
 
@@ -227,3 +228,18 @@ def as_bool_matrix(x, name: str, shape=(None, None)) -> np.ndarray:
         want = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ")"
         raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
     return np.ascontiguousarray(arr)
+
+
+def as_offsets(offsets, total: int, name: str = "offsets", *, min_scans: int = 0) -> np.ndarray:
+    """Scan offsets of a concatenated run: a 1-D integer array of length ``K + 1``
+    (``K >= min_scans``) rising from 0 to ``total`` (the number of measurements), so that
+    scan ``k`` is ``z[offsets[k]:offsets[k + 1]]``.  Returns a contiguous int64 copy."""
+    off = np.asarray(offsets)
+    if off.ndim != 1 or off.size < 1 + min_scans or not np.issubdtype(off.dtype, np.integer):
+        raise ValueError(f"{name} must be a 1-D integer array of length K + 1 >= {1 + min_scans}, "
+                         f"got {_describe(offsets)}")
+    off = np.ascontiguousarray(off, dtype=np.int64)
+    if off[0] != 0 or off[-1] != total or np.any(np.diff(off) < 0):
+        raise ValueError(f"{name} must start at 0, be non-decreasing and end at the number of "
+                         f"measurements ({total})")
+    return off

@@ -41,7 +41,7 @@ from ..association.hpda import (hpda_conditional_rank_kernel, hpda_existence_del
 from ..association.pda import pda_update_kernel
 from ..filters.kalman import kf_predict_kernel
 from ..filters.particle import systematic_indices_kernel
-from ..core.validation import as_array, as_int, as_rng
+from ..core.validation import as_array, as_int, as_offsets, as_rng
 from ..models.measurement import (range_bearing_jacobian_kernel, range_bearing_kernel,
                                   wrap_angle_kernel)
 
@@ -141,12 +141,7 @@ def check_scans(z, amplitude, offsets):
         raise ValueError(f"amplitude must have shape ({Z.shape[0]},), got {A.shape}")
     if np.isnan(A).any():
         raise ValueError("amplitude must not contain NaN")
-    off = np.asarray(offsets)
-    if off.ndim != 1 or off.size < 1 or not np.issubdtype(off.dtype, np.integer):
-        raise ValueError("offsets must be a 1-D integer array of length K + 1")
-    off = np.ascontiguousarray(off, dtype=np.int64)
-    if off[0] != 0 or off[-1] != Z.shape[0] or np.any(np.diff(off) < 0):
-        raise ValueError("offsets must start at 0, be non-decreasing and end at len(z)")
+    off = as_offsets(offsets, Z.shape[0])
     return Z, np.ascontiguousarray(A, dtype=np.float64), off
 
 

@@ -34,7 +34,7 @@ import numpy as np
 
 from ..association.gating import gate_threshold, mahalanobis_gate_kernel
 from ..association.pda import pda_betas_kernel, pda_update_kernel
-from ..core.validation import (as_array, as_covariance, as_measurements, as_nonnegative,
+from ..core.validation import (as_offsets, as_array, as_covariance, as_measurements, as_nonnegative,
                                as_positive, as_probabilities, as_probability, as_scalar,
                                as_square_matrix, as_vector)
 from ..filters.imm import imm_combine_kernel, imm_mix_kernel, imm_mode_update_kernel
@@ -456,12 +456,7 @@ def imm_pdaf_track_packed(models, z, offsets, x0, P0, R, *, pd=1.0, pg=0.99,
     if not isinstance(models, IMMModelSet):
         raise TypeError(f"models must be an IMMModelSet, got {type(models).__name__}")
     z = as_measurements(z, "z", 2)
-    offsets = np.asarray(offsets)
-    if offsets.ndim != 1 or offsets.size < 1 or not np.issubdtype(offsets.dtype, np.integer):
-        raise ValueError("offsets must be a 1-D integer array of length K + 1")
-    offsets = np.ascontiguousarray(offsets, dtype=np.int64)
-    if offsets[0] != 0 or offsets[-1] != z.shape[0] or np.any(np.diff(offsets) < 0):
-        raise ValueError("offsets must start at 0, be non-decreasing and end at len(z)")
+    offsets = as_offsets(offsets, z.shape[0])
     x0 = as_vector(x0, "x0", 4)
     P0 = as_covariance(P0, "P0", 4)
     R = as_covariance(R, "R", 2, strict=True)

@@ -42,7 +42,7 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-from ..core.validation import (as_array, as_int, as_measurements, as_nonnegative,
+from ..core.validation import (as_offsets, as_array, as_int, as_measurements, as_nonnegative,
                                as_probability, as_rng, as_scalar, as_square_matrix, as_vector)
 from ..filters.particle import noise_factor, propagate_linear_kernel, systematic_indices_kernel
 from ..models.measurement import range_bearing_kernel, wrap_angle_kernel
@@ -434,12 +434,7 @@ def smc_phd_filter(particles, w, z, offsets, model: SmcPhdModel, rng, *,
     nx = mdl.F.shape[0]
     X, W = _particles_weights(particles, w, nx)
     Z = as_measurements(z, "z", 2)
-    off = np.asarray(offsets)
-    if off.ndim != 1 or off.size < 1 or not np.issubdtype(off.dtype, np.integer):
-        raise ValueError("offsets must be a 1-D integer array of length K + 1")
-    off = np.ascontiguousarray(off, dtype=np.int64)
-    if off[0] != 0 or off[-1] != Z.shape[0] or np.any(np.diff(off) < 0):
-        raise ValueError("offsets must start at 0, be non-decreasing and end at len(z)")
+    off = as_offsets(offsets, Z.shape[0])
     N = X.shape[0]
     n_out = N if n_out is None else as_int(n_out, "n_out", minimum=1)
     if n_out < 1:

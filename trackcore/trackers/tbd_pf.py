@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from ..core.validation import (as_array, as_count, as_covariance, as_int, as_nonnegative,
+from ..core.validation import (as_offsets, as_array, as_count, as_covariance, as_int, as_nonnegative,
                                as_positive, as_probability, as_rng, as_vector)
 from ..detection.marcum import (log_marcum_detection_probability,
                                 log_marcum_detection_probability_scalar_kernel,
@@ -573,12 +573,7 @@ def _scan_arrays(scans):
     snr = as_array(snr, "scans.snr", shape=(M,))
     if M and np.any(snr < 0):
         raise ValueError("scans.snr must be a non-negative linear power ratio")
-    off = np.asarray(offsets)
-    if off.ndim != 1 or off.size < 2 or not np.issubdtype(off.dtype, np.integer):
-        raise ValueError("scans.offsets must be a 1-D integer array of length K + 1 >= 2")
-    off = np.ascontiguousarray(off, dtype=np.int64)
-    if off[0] != 0 or off[-1] != M or np.any(np.diff(off) < 0):
-        raise ValueError("scans.offsets must rise from 0 to the number of detections")
+    off = as_offsets(offsets, M, "scans.offsets", min_scans=1)
     return pos, rr, snr, off
 
 
