@@ -386,6 +386,16 @@ def _check_model(model):
     return model
 
 
+def _output_size(n_out, N: int, mdl: SmcPhdModel) -> int:
+    """The number of particles kept after resampling (default: the prior's ``N``)."""
+    n_out = N if n_out is None else as_int(n_out, "n_out", minimum=1)
+    if n_out < 1:
+        raise ValueError("n_out must be >= 1 (particles is empty: pass n_out)")
+    if N + mdl.n_birth == 0:
+        raise ValueError("particles is empty and model.n_birth is 0: nothing to propagate")
+    return n_out
+
+
 def smc_phd_step(particles, w, z, model: SmcPhdModel, rng, *, n_out=None) -> SmcPhdStep:
     """One SMC-PHD scan: predict the prior particles ``(N, n)`` with linear
     weights ``w`` ``(N,)`` (``N = 0`` allowed: births only), add the Gaussian
@@ -399,11 +409,7 @@ def smc_phd_step(particles, w, z, model: SmcPhdModel, rng, *, n_out=None) -> Smc
     X, W = _particles_weights(particles, w, nx)
     Z = z if (_plain(z, 2) and z.shape[1] == 2) else as_measurements(z, "z", 2)
     N = X.shape[0]
-    n_out = N if n_out is None else as_int(n_out, "n_out", minimum=1)
-    if n_out < 1:
-        raise ValueError("n_out must be >= 1 (particles is empty: pass n_out)")
-    if N + mdl.n_birth == 0:
-        raise ValueError("particles is empty and model.n_birth is 0: nothing to propagate")
+    n_out = _output_size(n_out, N, mdl)
     cap = N + mdl.n_birth
     Xw = np.empty((cap, nx))
     Xw[:N] = X
@@ -436,11 +442,7 @@ def smc_phd_filter(particles, w, z, offsets, model: SmcPhdModel, rng, *,
     Z = as_measurements(z, "z", 2)
     off = as_offsets(offsets, Z.shape[0])
     N = X.shape[0]
-    n_out = N if n_out is None else as_int(n_out, "n_out", minimum=1)
-    if n_out < 1:
-        raise ValueError("n_out must be >= 1 (particles is empty: pass n_out)")
-    if N + mdl.n_birth == 0:
-        raise ValueError("particles is empty and model.n_birth is 0: nothing to propagate")
+    n_out = _output_size(n_out, N, mdl)
     card = np.zeros(off.shape[0] - 1)
     i00, i11, gnorm = _rb_constants(mdl.R)
     if off.shape[0] == 1:
