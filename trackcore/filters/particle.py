@@ -798,25 +798,58 @@ def _move_flat4(particles, lo, hi, F, L, noise, out):
 @nb.njit(cache=True)
 def _weigh_range(X, lo, hi, z, Rinv, c, model, sx, sy, logw):
     """Add the log-likelihoods of particles ``X[lo:hi]`` to ``logw`` (skipped
-    when ``z`` is empty); returns the largest resulting log-weight in the range."""
-    d = z.shape[0]
-    top = -np.inf
-    if d > 0:
+    when ``z`` is empty); returns the largest resulting log-weight in the range
+    (a separate pass in the same order as the additions, so the same value)."""
+    if z.shape[0] > 0:
         if model == 1:
-            for i in range(lo, hi):
-                v = logw[i] + _ll_range_bearing_one(X, i, z, Rinv, c, sx, sy)
-                logw[i] = v
-                top = v if v > top else top
+            _add_range_bearing_loglik(X, lo, hi, z, Rinv, c, sx, sy, logw)
         else:
             for i in range(lo, hi):
-                v = logw[i] + _ll_position_one(X, i, z, Rinv, c)
-                logw[i] = v
-                top = v if v > top else top
+                logw[i] = logw[i] + _ll_position_one(X, i, z, Rinv, c)
+    top = -np.inf
+    for i in range(lo, hi):
+        v = logw[i]
+        top = v if v > top else top
+    return top
+
+
+@nb.njit(cache=True)
+def _add_range_bearing_loglik(X, lo, hi, z, Rinv, c, sx, sy, logw):
+    """``logw[i] += log N(z - h(x_i); 0, R)`` for ``i`` in ``lo..hi-1``: the
+    arithmetic of :func:`_ll_range_bearing_one`, operation for operation, in
+    two passes.  The first only calls ``atan2`` (and wraps the bearing
+    innovation); the second, free of calls, computes the range innovation and
+    the quadratic form and is vectorised by LLVM for ``n = 4`` (one particle
+    per SIMD lane, IEEE-exact ``sqrt``, no reassociation).  In one loop the
+    quadratic form's latency after each ``atan2`` call and the scalar ``sqrt``
+    cost ~3 ns per particle."""
+    m = hi - lo
+    r1s = np.empty(m)
+    z0 = z[0]
+    z1 = z[1]
+    for i in range(lo, hi):
+        r1 = z1 - math.atan2(X[i, 1] - sy, X[i, 0] - sx)
+        if not (-math.pi < r1 <= math.pi):
+            r1 = wrap_angle_kernel(r1)
+        r1s[i - lo] = r1
+    a = Rinv[0, 0]
+    b2 = 2.0 * Rinv[0, 1]
+    d = Rinv[1, 1]
+    if X.shape[1] == 4 and X.flags.c_contiguous:
+        P = X.reshape(X.size)
+        for i in range(lo, hi):
+            dx = P[4 * i] - sx
+            dy = P[4 * i + 1] - sy
+            r0 = z0 - math.sqrt(dx * dx + dy * dy)
+            r1 = r1s[i - lo]
+            logw[i] = logw[i] + (c - 0.5 * (a * r0 * r0 + b2 * r0 * r1 + d * r1 * r1))
     else:
         for i in range(lo, hi):
-            v = logw[i]
-            top = v if v > top else top
-    return top
+            dx = X[i, 0] - sx
+            dy = X[i, 1] - sy
+            r0 = z0 - math.sqrt(dx * dx + dy * dy)
+            r1 = r1s[i - lo]
+            logw[i] = logw[i] + (c - 0.5 * (a * r0 * r0 + b2 * r0 * r1 + d * r1 * r1))
 
 
 @nb.njit(cache=True, parallel=True)
