@@ -247,16 +247,17 @@ class JPDATracker:
                 if len(mea) == 0:
                     n_events += 1
                     continue
-                sub_valid = valid[np.ix_(mea, trk)]
-                sub_lik = lik[np.ix_(mea, trk)]
+                ix = np.ix_(mea, trk)
+                sub_valid = valid[ix]
+                sub_lik = lik[ix]
                 if c.variant == "FJPDA" and c.feature_lr is not None:
-                    r = np.clip(rho[np.ix_(mea, trk)], 1e-6, 1 - 1e-6)
+                    r = np.clip(rho[ix], 1e-6, 1 - 1e-6)
                     a1, b1, a0, b0 = c.feature_lr
                     lr = np.exp(beta_dist.logpdf(r, a1, b1) - beta_dist.logpdf(r, a0, b0))
                     b, n = jpda_marginals(sub_lik * lr, sub_valid, c.pd, c.lam)
                 elif c.variant == "FJPDA":
-                    b, n = jpda_marginals(sub_lik, valid_kin[np.ix_(mea, trk)], c.pd, c.lam,
-                                          rho=rho[np.ix_(mea, trk)], c_I=c.c_I)
+                    b, n = jpda_marginals(sub_lik, valid_kin[ix], c.pd, c.lam,
+                                          rho=rho[ix], c_I=c.c_I)
                 else:
                     b, n = jpda_marginals(sub_lik, sub_valid, c.pd, c.lam)
                 n_events += n
@@ -288,7 +289,10 @@ class JPDATracker:
         keep = []
         for i, tr in enumerate(self.tracks):
             h = bool(hit[i])
-            semi = math.sqrt(c.gamma * float(np.linalg.eigvalsh(S_all[i])[-1]))
+            Si = S_all[i]             # 2x2: largest eigenvalue in closed form
+            half = 0.5 * (Si[0, 0] - Si[1, 1])
+            lmax = 0.5 * (Si[0, 0] + Si[1, 1]) + math.sqrt(half * half + Si[0, 1] * Si[1, 0])
+            semi = math.sqrt(c.gamma * lmax)
             reason = None
             if semi > c.gate_max:
                 reason = "gate"
