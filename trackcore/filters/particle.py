@@ -1012,7 +1012,9 @@ def bootstrap_step(particles, logw, F, L, z, R, rng, model="range_bearing", *,
     systematically when ``ESS < ess_threshold * N`` (always for the default
     ``ess_threshold=1``).  ``parallel=True`` runs the move-and-weigh pass on
     numba threads for ``N >= 20000`` (same results; only worth it on idle
-    cores).  Returns a :class:`BootstrapStep`.
+    cores).  ``scratch``: optional ``(N, n)`` C-contiguous float64 work
+    array, not overlapping ``particles`` (reuse one across steps to save an
+    allocation).  Returns a :class:`BootstrapStep`.
     """
     # Each argument takes a cheap path when it is already what the kernel needs
     # (C-contiguous float64 of the right shape, finite sum); anything else goes
