@@ -85,13 +85,17 @@ def main(argv=None) -> int:
             removed = 0
             rows.append(r)
             print(json.dumps(r), flush=True)
+            _write(machine, rows)   # after every notebook: a failure keeps what was measured
+    print(f"wrote {RESULTS}")
+    return 0
+
+
+def _write(machine: dict, rows: list) -> None:
     order = {c: i for i, c in enumerate(CHAPTERS)}
     rows.sort(key=lambda r: (order[r["chapter"]], r["notebook"]))
     machine["load_average_at_end_1_5_15min"] = load_average()
     RESULTS.parent.mkdir(parents=True, exist_ok=True)
     RESULTS.write_text(json.dumps({"machine": machine, "notebooks": rows}, indent=1) + "\n")
-    print(f"wrote {RESULTS}")
-    return 0
 
 
 if __name__ == "__main__":
