@@ -10,13 +10,13 @@ import pytest
 from scipy import stats
 from scipy.special import i0e
 
-from trackcore.models import cv_transition
 from trackcore.scenarios import (TbdRadarParameters, simulate_intensity_maps, tbd_intensity_trial,
                                  tbd_paired_trial, tbd_radar_truth)
 from trackcore.trackers import (IntensityGrid, IntensityMaps, IntensityTbdConfig,
                                 TbdTrackerConfig, intensity_log_likelihood_ratio, intensity_psf,
                                 run_intensity_tbd)
 from trackcore.trackers.tbd_intensity_pf import log_i0_kernel
+import _truth  # tests/_truth.py (shared truth helper)
 
 GRID = IntensityGrid()
 P0 = np.diag([300.0 ** 2] * 3 + [20.0 ** 2] * 3)
@@ -30,11 +30,7 @@ def cell_centre(i, j, l, grid=GRID):
 
 
 def straight_track(K, x0=(30e3, 15e3, 5e3, -150.0, 60.0, 0.0)):
-    F = cv_transition(1.0, dim=3)
-    xs = [np.array(x0, float)]
-    for _ in range(K - 1):
-        xs.append(F @ xs[-1])
-    return np.array(xs)
+    return _truth.straight_track(K, x0)
 
 
 # ----------------------------------------------------------------------------- log I0

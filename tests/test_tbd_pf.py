@@ -16,6 +16,7 @@ from trackcore.trackers import (TbdTrackerConfig, direct_particle_log_weights, r
                                 range_azimuth_elevation, range_azimuth_elevation_jacobian,
                                 run_tbd_tracker, spherical_to_cartesian, tbd_measurement_errors,
                                 tbd_position_errors, tbd_track_lost, weighted_mean_detection)
+import _truth  # tests/_truth.py (shared truth helper)
 
 P0 = np.diag([300.0 ** 2] * 3 + [20.0 ** 2] * 3)
 
@@ -32,11 +33,7 @@ def scans_from_list(scan_list):
 
 
 def straight_track(K=30, x0=(30e3, 10e3, 5e3, -150.0, 50.0, 0.0)):
-    F = cv_transition(1.0, dim=3)
-    xs = [np.array(x0, float)]
-    for _ in range(K - 1):
-        xs.append(F @ xs[-1])
-    return np.array(xs)
+    return _truth.straight_track(K, x0)
 
 
 # ----------------------------------------------------------------------------- errata
