@@ -1,6 +1,10 @@
-"""The book's figure style and recurring plots.
+"""The book's figure style, recurring plots and results tables.
 
-Every notebook calls :func:`use_book_style` in its hidden first cell.
+Every notebook calls :func:`use_book_style` in its hidden first cell. The style draws
+figures 7.5 in wide at 150 dpi with 9-10 pt text, so that at the book's rendered column
+width the text stays at least 9 pt; multi-panel figures stack panels rather than widen.
+Results tables are shown with :func:`results_table` (Markdown, rendered as an HTML
+table by the book and by JupyterLab).
 """
 from __future__ import annotations
 
@@ -9,8 +13,12 @@ import numpy as np
 
 from .core.validation import as_array
 
-__all__ = ["use_book_style", "BOOK_COLORS", "plot_rmse_vs_time", "plot_tracks_2d",
-           "plot_count_vs_scan", "plot_consistency", "paper_vs_ours_table"]
+__all__ = ["use_book_style", "BOOK_COLORS", "BOOK_WIDTH", "plot_rmse_vs_time",
+           "plot_tracks_2d", "plot_count_vs_scan", "plot_consistency", "paper_vs_ours_table",
+           "results_table", "integer_ticks"]
+
+BOOK_WIDTH = 7.5
+"""Figure width in inches that renders at the book's column width without shrinking text."""
 
 BOOK_COLORS = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#F0E442", "#000000")
 
@@ -40,8 +48,8 @@ def use_book_style() -> None:
 
     _use_inline_backend_in_kernel()
     matplotlib.rcParams.update({
-        "figure.figsize": (7.0, 4.2),
-        "figure.dpi": 100,
+        "figure.figsize": (BOOK_WIDTH, 4.0),
+        "figure.dpi": 150,
         "savefig.dpi": 150,
         "axes.grid": True,
         "grid.alpha": 0.3,
@@ -49,7 +57,10 @@ def use_book_style() -> None:
         "axes.spines.right": False,
         "axes.prop_cycle": cycler(color=list(BOOK_COLORS)),
         "font.size": 10,
-        "axes.titlesize": 11,
+        "axes.titlesize": 10,
+        "axes.labelsize": 10,
+        "xtick.labelsize": 9,
+        "ytick.labelsize": 9,
         "legend.fontsize": 9,
         "legend.frameon": False,
         "image.cmap": "viridis",
@@ -221,3 +232,40 @@ def paper_vs_ours_table(rows, headers=("quantity", "paper", "this book"), *, flo
              "| " + " | ".join("-" * w for w in widths) + " |"]
     lines += ["| " + " | ".join(c.ljust(w) for c, w in zip(r, widths)) + " |" for r in body]
     return "\n".join(lines)
+
+
+def results_table(rows, headers, *, floatfmt=".3g", align=None):
+    """A results table for display in a notebook: returns an ``IPython.display.Markdown``
+    object (the book renders it as an HTML table; nbval checks its text).
+
+    ``rows`` and ``headers`` are as in :func:`paper_vs_ours_table`; cells may hold
+    strings (e.g. a formatted :class:`trackcore.stats.Estimate`), numbers or ``None``.
+    ``align`` is an optional string of ``l``/``r``/``c``, one per column (default: left
+    for the first column, right for the others).
+    """
+    from IPython.display import Markdown
+
+    text = paper_vs_ours_table(rows, headers, floatfmt=floatfmt)
+    n = len(headers)
+    if align is None:
+        align = "l" + "r" * (n - 1)
+    if not isinstance(align, str) or len(align) != n or set(align) - set("lrc"):
+        raise ValueError(f"align must be a string of l/r/c with one letter per column ({n})")
+    marks = {"l": ":--", "r": "--:", "c": ":-:"}
+    lines = text.split("\n")
+    lines[1] = "| " + " | ".join(marks[a] for a in align) + " |"
+    return Markdown("\n".join(lines))
+
+
+def integer_ticks(ax, axis="x"):
+    """Put ticks on whole numbers only (scan or frame axes). Returns ``ax``."""
+    from matplotlib.ticker import MaxNLocator
+
+    _check_ax(ax)
+    if axis not in ("x", "y", "both"):
+        raise ValueError(f"axis must be 'x', 'y' or 'both', got {axis!r}")
+    if axis in ("x", "both"):
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    if axis in ("y", "both"):
+        ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+    return ax

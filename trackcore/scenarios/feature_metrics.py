@@ -26,7 +26,9 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-__all__ = ["SceneMetrics", "match_tracks", "scene_metrics", "wilson_interval", "vehicle_mask_iou",
+from ..stats import wilson_interval  # noqa: F401  (re-exported for the chapter's notebooks)
+
+__all__ = ["SceneMetrics", "match_tracks", "scene_metrics", "vehicle_mask_iou",
            "SceneTrial", "scene_trial", "scene_trials"]
 
 _REPORTED = ("confirmed", "memory")
@@ -53,19 +55,6 @@ class SceneMetrics(NamedTuple):
     @property
     def tmr(self):
         return self.tmr_num / self.tmr_den if self.tmr_den else float("nan")
-
-
-def wilson_interval(k, n, z=1.959963984540054):
-    """Wilson score interval (95 % by default) for k successes in n trials."""
-    k = np.asarray(k, float)
-    n = np.asarray(n, float)
-    if np.any(n <= 0) or np.any(k < 0) or np.any(k > n):
-        raise ValueError("need 0 <= k <= n and n > 0")
-    p = k / n
-    den = 1 + z ** 2 / n
-    centre = (p + z ** 2 / (2 * n)) / den
-    half = z * np.sqrt(p * (1 - p) / n + z ** 2 / (4 * n ** 2)) / den
-    return centre - half, centre + half
 
 
 def match_tracks(truth_xy, truth_present, reports, match_gate=10.0):

@@ -1,0 +1,474 @@
+"""Monte Carlo uncertainty: the intervals that decide every verdict in the book.
+
+One place for the statistics the chapters use to say "X beats Y", "target met" or "the
+paper's claim fails":
+
+* :func:`mean_ci` -- a bootstrap interval of a mean over Monte Carlo runs;
+* :func:`paired_diff_ci` and :func:`ratio_ci` -- the difference or ratio of two means, with
+  the runs resampled *together* when they are paired (same seeds, same scans);
+* :func:`diff_ci` -- the same for two independent samples;
+* :func:`rate_ci` / :func:`wilson_interval` -- the Wilson score interval of a rate
+  (lost tracks, success rates) :cite:p:`wilson1927`;
+* :func:`mcnemar_exact` -- the exact two-sided McNemar (sign) test on paired binary outcomes;
+* :func:`compare` and :func:`band_verdict` -- verdicts taken on an interval: a difference
+  whose interval contains zero is a tie; a target band is *met* only when the whole interval
+  lies inside it, *missed* when the whole interval lies outside, and *undecided* otherwise.
+
+Bootstrap intervals are bias-corrected and accelerated (BCa, :cite:t:`efron1993bootstrap`,
+ch. 14) with 10 000 resamples drawn from a fixed seed, so that a notebook prints the same
+interval on every machine.  The acceleration constant comes from the exact jackknife of the
+statistic, which for means, differences and ratios of means costs O(n).
+
+Every interval is returned as an :class:`Estimate`, which formats as ``value [lo, hi]``::
+
+    >>> est = mean_ci([0.1, 0.3, 0.2, 0.4])
+    >>> f"{est:.2f}"        # doctest: +SKIP
+    '0.25 [0.15, 0.35]'
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+from scipy.special import ndtr, ndtri
+from scipy.stats import binom
+
+__all__ = [
+    "Estimate",
+    "Comparison",
+    "mean_ci",
+    "diff_ci",
+    "paired_diff_ci",
+    "ratio_ci",
+    "bootstrap_ci",
+    "rate_ci",
+    "wilson_interval",
+    "mcnemar_exact",
+    "compare",
+    "band_verdict",
+    "LEVEL",
+    "N_BOOT",
+]
+
+LEVEL = 0.95
+"""Confidence level of every interval in the book unless a cell says otherwise."""
+
+N_BOOT = 10_000
+"""Bootstrap resamples per interval."""
+
+_CHUNK = 2_000  # resamples per vectorised block (bounds memory at n_runs * _CHUNK floats)
+
+
+# --------------------------------------------------------------------------- records
+
+@dataclass(frozen=True)
+class Estimate:
+    """A point estimate with its confidence interval.
+
+    Attributes
+    ----------
+    value : float
+        The estimate (a mean, a difference or ratio of means, a rate).
+    lo, hi : float
+        The interval's ends.
+    level : float
+        Its confidence level (0.95 unless stated).
+    n : int
+        The number of runs (or trials) behind it.
+    method : str
+        How the interval was made, e.g. ``"BCa bootstrap"`` or ``"Wilson"``.
+
+    ``format(est, ".3f")`` gives ``"0.094 [0.071, 0.118]"``; a ``%`` format gives
+    ``"92.5 [90.8, 94.0] %"`` (one percent sign, after the interval).
+    """
+
+    value: float
+    lo: float
+    hi: float
+    level: float = LEVEL
+    n: int = 0
+    method: str = ""
+
+    def __post_init__(self):
+        for name in ("value", "lo", "hi"):
+            v = getattr(self, name)
+            if not isinstance(v, (int, float, np.floating, np.integer)) or math.isnan(v):
+                raise ValueError(f"Estimate: {name} must be a number, got {v!r}")
+        if not self.lo <= self.hi:
+            raise ValueError(f"Estimate: need lo <= hi, got [{self.lo}, {self.hi}]")
+        if not 0.0 < self.level < 1.0:
+            raise ValueError(f"Estimate: level must lie in (0, 1), got {self.level}")
+
+    def __format__(self, spec: str) -> str:
+        spec = spec or ".3g"
+        if spec.endswith("%"):
+            inner = spec[:-1] + "f"
+            v, lo, hi = (format(100.0 * float(x), inner)
+                         for x in (self.value, self.lo, self.hi))
+            return f"{v} [{lo}, {hi}] %"
+        v, lo, hi = (format(float(x), spec) for x in (self.value, self.lo, self.hi))
+        return f"{v} [{lo}, {hi}]"
+
+    def __str__(self) -> str:
+        return format(self, ".3g")
+
+    def contains(self, x: float) -> bool:
+        """Whether ``x`` lies inside the interval (ends included)."""
+        return bool(self.lo <= x <= self.hi)
+
+    @property
+    def half_width(self) -> float:
+        return 0.5 * (self.hi - self.lo)
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """The outcome of :func:`compare`: an interval for ``A - B`` (or ``A / B``) and the
+    verdict it supports.
+
+    ``verdict`` is ``"A < B"``, ``"A > B"`` or ``"tie"`` with the names given to
+    :func:`compare`; ``better`` names the better one (or ``None`` for a tie).
+    """
+
+    a: str
+    b: str
+    effect: Estimate
+    kind: str          # "difference" or "ratio"
+    verdict: str
+    better: str | None
+
+    def __str__(self) -> str:
+        op = "-" if self.kind == "difference" else "/"
+        return f"{self.a} {op} {self.b} = {self.effect}: {self.verdict}"
+
+
+# --------------------------------------------------------------------------- helpers
+
+def _as_runs(x, name: str) -> np.ndarray:
+    try:
+        a = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be a 1-D array of numbers") from None
+    if a.ndim != 1:
+        raise ValueError(f"{name} must be 1-D (one value per run), got shape {a.shape}")
+    if a.size < 2:
+        raise ValueError(f"{name} needs at least 2 runs, got {a.size}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} contains NaN or inf")
+    return a
+
+
+def _check_level(level) -> float:
+    try:
+        level = float(level)
+    except (TypeError, ValueError):
+        raise TypeError("level must be a number in (0, 1)") from None
+    if not 0.0 < level < 1.0:
+        raise ValueError(f"level must lie in (0, 1), got {level}")
+    return level
+
+
+def _check_n_boot(n_boot) -> int:
+    if isinstance(n_boot, bool) or not isinstance(n_boot, (int, np.integer)):
+        raise TypeError("n_boot must be an integer")
+    if n_boot < 100:
+        raise ValueError(f"n_boot must be at least 100, got {n_boot}")
+    return int(n_boot)
+
+
+def _bca(theta_hat, boot, jack, level, n, method):
+    """BCa interval from bootstrap replicates and jackknife values."""
+    boot = np.asarray(boot, float)
+    boot = boot[np.isfinite(boot)]
+    if boot.size == 0:
+        raise ValueError("every bootstrap replicate is non-finite")
+    alpha = 0.5 * (1.0 - level)
+    if np.all(boot == boot[0]):  # a degenerate sample (all runs equal)
+        return Estimate(float(theta_hat), float(boot[0]), float(boot[0]), level, n, method)
+    prop = (np.count_nonzero(boot < theta_hat)
+            + 0.5 * np.count_nonzero(boot == theta_hat)) / boot.size
+    prop = min(max(prop, 1.0 / boot.size), 1.0 - 1.0 / boot.size)
+    z0 = ndtri(prop)
+    d = jack.mean() - jack
+    den = 6.0 * (np.sum(d * d) ** 1.5)
+    a = float(np.sum(d ** 3) / den) if den > 0 else 0.0
+    z = ndtri(np.array([alpha, 1.0 - alpha]))
+    adj = ndtr(z0 + (z0 + z) / (1.0 - a * (z0 + z)))
+    lo, hi = np.quantile(boot, adj)
+    lo = min(float(lo), float(theta_hat))
+    hi = max(float(hi), float(theta_hat))
+    return Estimate(float(theta_hat), lo, hi, level, n, method)
+
+
+def _boot_means(samples, paired, n_boot, seed):
+    """Bootstrap means of each sample: returns one ``(n_boot,)`` array per sample."""
+    rng = np.random.default_rng(seed)
+    out = [np.empty(n_boot) for _ in samples]
+    done = 0
+    while done < n_boot:
+        b = min(_CHUNK, n_boot - done)
+        if paired:
+            idx = rng.integers(0, samples[0].size, size=(b, samples[0].size))
+            for o, s in zip(out, samples):
+                o[done:done + b] = s[idx].mean(axis=1)
+        else:
+            for o, s in zip(out, samples):
+                idx = rng.integers(0, s.size, size=(b, s.size))
+                o[done:done + b] = s[idx].mean(axis=1)
+        done += b
+    return out
+
+
+def _jack_means(x):
+    """Leave-one-out means of ``x``."""
+    return (x.sum() - x) / (x.size - 1)
+
+
+# --------------------------------------------------------------------------- intervals
+
+def mean_ci(x, *, level: float = LEVEL, n_boot: int = N_BOOT, seed: int = 0) -> Estimate:
+    """BCa bootstrap interval of the mean of ``x`` (one value per Monte Carlo run).
+
+    Parameters
+    ----------
+    x : array_like, shape (n,)
+        Per-run values, finite, ``n >= 2``.
+    level : float
+        Confidence level (default 0.95).
+    n_boot : int
+        Bootstrap resamples (default 10 000).
+    seed : int
+        Seed of the resampling stream, fixed so that the interval is reproducible.
+    """
+    x = _as_runs(x, "x")
+    level, n_boot = _check_level(level), _check_n_boot(n_boot)
+    (boot,) = _boot_means([x], True, n_boot, seed)
+    return _bca(x.mean(), boot, _jack_means(x), level, x.size, "BCa bootstrap")
+
+
+def paired_diff_ci(x, y, *, level: float = LEVEL, n_boot: int = N_BOOT,
+                   seed: int = 0) -> Estimate:
+    """Interval of ``mean(x) - mean(y)`` for paired runs (run ``i`` of ``x`` and of ``y``
+    share their seed): the runs are resampled together."""
+    x, y = _as_runs(x, "x"), _as_runs(y, "y")
+    if x.size != y.size:
+        raise ValueError(f"paired samples need equal lengths, got x {x.size} and y {y.size}")
+    d = x - y
+    level, n_boot = _check_level(level), _check_n_boot(n_boot)
+    (boot,) = _boot_means([d], True, n_boot, seed)
+    return _bca(d.mean(), boot, _jack_means(d), level, d.size, "paired BCa bootstrap")
+
+
+def diff_ci(x, y, *, level: float = LEVEL, n_boot: int = N_BOOT, seed: int = 0) -> Estimate:
+    """Interval of ``mean(x) - mean(y)`` for independent samples (resampled separately)."""
+    x, y = _as_runs(x, "x"), _as_runs(y, "y")
+    level, n_boot = _check_level(level), _check_n_boot(n_boot)
+    bx, by = _boot_means([x, y], False, n_boot, seed)
+    # jackknife over the pooled observations: leave one out of x, then one out of y
+    jack = np.concatenate([_jack_means(x) - y.mean(), x.mean() - _jack_means(y)])
+    return _bca(x.mean() - y.mean(), bx - by, jack, level, x.size + y.size, "BCa bootstrap")
+
+
+def ratio_ci(x, y, *, paired: bool = True, level: float = LEVEL, n_boot: int = N_BOOT,
+             seed: int = 0) -> Estimate:
+    """Interval of ``mean(x) / mean(y)`` (e.g. one filter's RMSE as a fraction of another's).
+
+    ``paired=True`` resamples run ``i`` of both together (same seeds); ``mean(y)`` must be
+    positive.
+    """
+    x, y = _as_runs(x, "x"), _as_runs(y, "y")
+    if paired and x.size != y.size:
+        raise ValueError(f"paired samples need equal lengths, got x {x.size} and y {y.size}")
+    if not y.mean() > 0:
+        raise ValueError("ratio_ci needs mean(y) > 0")
+    level, n_boot = _check_level(level), _check_n_boot(n_boot)
+    bx, by = _boot_means([x, y], paired, n_boot, seed)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        boot = bx / by
+    if paired:
+        jack = _jack_means(x) / _jack_means(y)
+    else:
+        jack = np.concatenate([_jack_means(x) / y.mean(), x.mean() / _jack_means(y)])
+    n = x.size if paired else x.size + y.size
+    return _bca(x.mean() / y.mean(), boot, jack, level, n,
+                "paired BCa bootstrap" if paired else "BCa bootstrap")
+
+
+def bootstrap_ci(statistic: Callable, *samples, paired: bool = True, level: float = LEVEL,
+                 n_boot: int = N_BOOT, seed: int = 0) -> Estimate:
+    """BCa interval of any statistic of one or more per-run samples.
+
+    ``statistic(*arrays)`` receives arrays whose **first axis holds resamples**: shape
+    ``(b, n)`` for each 1-D sample (or ``(b, n, ...)``), and returns ``(b,)`` values; e.g.
+    ``lambda x: np.median(x, axis=1)``. It is also called once on the data with a leading
+    axis of length 1 and on the ``n`` leave-one-out samples for the jackknife.
+    ``paired=True`` resamples the same run indices in every sample (all the same length).
+    """
+    if not callable(statistic):
+        raise TypeError("statistic must be callable")
+    if not samples:
+        raise ValueError("bootstrap_ci needs at least one sample")
+    arrs = []
+    for i, s in enumerate(samples):
+        a = np.asarray(s, dtype=float)
+        if a.ndim < 1 or a.shape[0] < 2:
+            raise ValueError(f"sample {i} needs at least 2 runs along its first axis")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"sample {i} contains NaN or inf")
+        arrs.append(a)
+    if paired and len({a.shape[0] for a in arrs}) != 1:
+        raise ValueError("paired samples need the same number of runs")
+    level, n_boot = _check_level(level), _check_n_boot(n_boot)
+
+    def stat(*xs):
+        v = np.asarray(statistic(*xs), float).reshape(-1)
+        if v.size != xs[0].shape[0]:
+            raise ValueError("statistic must return one value per resample (first axis)")
+        return v
+
+    theta = float(stat(*[a[None] for a in arrs])[0])
+    rng = np.random.default_rng(seed)
+    boot = np.empty(n_boot)
+    done = 0
+    while done < n_boot:
+        b = min(_CHUNK // 4, n_boot - done)
+        if paired:
+            idx = rng.integers(0, arrs[0].shape[0], size=(b, arrs[0].shape[0]))
+            res = [a[idx] for a in arrs]
+        else:
+            res = [a[rng.integers(0, a.shape[0], size=(b, a.shape[0]))] for a in arrs]
+        boot[done:done + b] = stat(*res)
+        done += b
+    if paired:
+        n = arrs[0].shape[0]
+        keep = ~np.eye(n, dtype=bool)
+        jack = stat(*[np.stack([a[keep[i]] for i in range(n)]) for a in arrs])
+    else:
+        parts = []
+        for j, a in enumerate(arrs):
+            n = a.shape[0]
+            keep = ~np.eye(n, dtype=bool)
+            loo = np.stack([a[keep[i]] for i in range(n)])
+            others = [np.repeat(o[None], n, axis=0) for o in arrs]
+            others[j] = loo
+            parts.append(stat(*others))
+        jack = np.concatenate(parts)
+        n = sum(a.shape[0] for a in arrs)
+    return _bca(theta, boot, jack, level, n, "BCa bootstrap")
+
+
+def wilson_interval(k, n, z: float = 1.959963984540054):
+    """Wilson score interval for ``k`` successes in ``n`` trials (95 % for the default
+    ``z``); element-wise on arrays. Returns ``(lo, hi)``."""
+    try:
+        k = np.asarray(k, float)
+        n = np.asarray(n, float)
+        z = float(z)
+    except (TypeError, ValueError):
+        raise TypeError("wilson_interval: k, n and z must be numbers") from None
+    if not (np.all(np.isfinite(k)) and np.all(np.isfinite(n)) and math.isfinite(z)):
+        raise ValueError("wilson_interval: k, n and z must be finite")
+    if np.any(n <= 0) or np.any(k < 0) or np.any(k > n):
+        raise ValueError("wilson_interval: need 0 <= k <= n and n > 0")
+    if not z > 0:
+        raise ValueError(f"wilson_interval: z must be positive, got {z}")
+    p = k / n
+    den = 1 + z ** 2 / n
+    centre = (p + z ** 2 / (2 * n)) / den
+    half = z * np.sqrt(p * (1 - p) / n + z ** 2 / (4 * n ** 2)) / den
+    # the exact ends at k = 0 and k = n are 0 and 1 (rounding would leave ~1e-17)
+    lo = np.where(k == 0, 0.0, np.maximum(centre - half, 0.0))
+    hi = np.where(k == n, 1.0, np.minimum(centre + half, 1.0))
+    if lo.ndim == 0:
+        return float(lo), float(hi)
+    return lo, hi
+
+
+def rate_ci(k, n, *, level: float = LEVEL) -> Estimate:
+    """Wilson interval of the rate ``k / n`` (``k`` events in ``n`` runs) as an
+    :class:`Estimate`. ``k`` may also be a boolean array with one entry per run."""
+    level = _check_level(level)
+    if n is None:
+        raise TypeError("rate_ci: n is required")
+    arr = np.asarray(k)
+    if arr.ndim == 1 and arr.dtype == bool:
+        if arr.size != n:
+            raise ValueError(f"rate_ci: k has {arr.size} runs but n = {n}")
+        k = int(arr.sum())
+    if isinstance(k, bool) or isinstance(n, bool):
+        raise TypeError("rate_ci: k and n must be counts")
+    if float(k) != int(k) or float(n) != int(n):
+        raise ValueError("rate_ci: k and n must be whole numbers")
+    z = float(ndtri(0.5 + level / 2))
+    lo, hi = wilson_interval(int(k), int(n), z)
+    return Estimate(int(k) / int(n), float(lo), float(hi), level, int(n), "Wilson")
+
+
+def mcnemar_exact(b: int, c: int) -> float:
+    """Exact two-sided McNemar test: the p-value of ``b`` runs where only A succeeds
+    (or fails) against ``c`` where only B does, under equal odds. Returns 1.0 when
+    ``b = c = 0``."""
+    for name, v in (("b", b), ("c", c)):
+        if isinstance(v, bool) or not float(v) == int(v) or int(v) < 0:
+            raise ValueError(f"mcnemar_exact: {name} must be a non-negative count, got {v!r}")
+    b, c = int(b), int(c)
+    if b + c == 0:
+        return 1.0
+    return float(min(1.0, 2.0 * binom.cdf(min(b, c), b + c, 0.5)))
+
+
+# --------------------------------------------------------------------------- verdicts
+
+def compare(x, y, names=("A", "B"), *, paired: bool = True, kind: str = "difference",
+            lower_is_better: bool = True, level: float = LEVEL, n_boot: int = N_BOOT,
+            seed: int = 0) -> Comparison:
+    """Decide ``A`` against ``B`` on the interval of ``mean(x) - mean(y)``
+    (``kind="difference"``) or ``mean(x) / mean(y)`` (``kind="ratio"``).
+
+    The verdict is ``"A < B"`` when the whole interval lies below 0 (below 1 for a
+    ratio), ``"A > B"`` when it lies above, and ``"tie"`` otherwise. ``better`` names the
+    winner given ``lower_is_better``.
+    """
+    if kind not in ("difference", "ratio"):
+        raise ValueError(f"kind must be 'difference' or 'ratio', got {kind!r}")
+    if len(names) != 2 or not all(isinstance(s, str) for s in names):
+        raise TypeError("names must be two strings")
+    a, b = names
+    if kind == "ratio":
+        eff = ratio_ci(x, y, paired=paired, level=level, n_boot=n_boot, seed=seed)
+        ref = 1.0
+    elif paired:
+        eff = paired_diff_ci(x, y, level=level, n_boot=n_boot, seed=seed)
+        ref = 0.0
+    else:
+        eff = diff_ci(x, y, level=level, n_boot=n_boot, seed=seed)
+        ref = 0.0
+    if eff.hi < ref:
+        verdict, low = f"{a} < {b}", a
+    elif eff.lo > ref:
+        verdict, low = f"{a} > {b}", b
+    else:
+        return Comparison(a, b, eff, kind, "tie", None)
+    high = b if low == a else a
+    return Comparison(a, b, eff, kind, verdict, low if lower_is_better else high)
+
+
+def band_verdict(est: Estimate, lo: float | None = None, hi: float | None = None) -> str:
+    """Decide a target band ``lo <= value <= hi`` (either end may be ``None``) on an
+    interval: ``"met"`` when the whole interval lies inside the band, ``"missed"`` when it
+    lies wholly outside, ``"undecided"`` when it straddles an end."""
+    if not isinstance(est, Estimate):
+        raise TypeError("band_verdict needs an Estimate")
+    if lo is None and hi is None:
+        raise ValueError("band_verdict needs lo, hi or both")
+    lo_ = -math.inf if lo is None else float(lo)
+    hi_ = math.inf if hi is None else float(hi)
+    if math.isnan(lo_) or math.isnan(hi_) or lo_ > hi_:
+        raise ValueError(f"band_verdict: invalid band [{lo}, {hi}]")
+    if lo_ <= est.lo and est.hi <= hi_:
+        return "met"
+    if est.hi < lo_ or est.lo > hi_:
+        return "missed"
+    return "undecided"
