@@ -9,7 +9,8 @@ paper's claim fails":
 * :func:`diff_ci` -- the same for two independent samples;
 * :func:`rate_ci` / :func:`wilson_interval` -- the Wilson score interval of a rate
   (lost tracks, success rates) :cite:p:`wilson1927`;
-* :func:`mcnemar_exact` -- the exact two-sided McNemar (sign) test on paired binary outcomes;
+* :func:`mcnemar_exact` -- the exact two-sided McNemar (sign) test on paired binary outcomes
+  :cite:p:`mcnemar1947`;
 * :func:`compare` and :func:`band_verdict` -- verdicts taken on an interval: a difference
   whose interval contains zero is a tie; a target band is *met* only when the whole interval
   lies inside it, *missed* when the whole interval lies outside, and *undecided* otherwise.

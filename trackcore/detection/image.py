@@ -91,7 +91,7 @@ def bar_sprite(h=22, w=6, intensity=100.0):
 def foliage_sprite(rng, radius=7.0, intensity=75.0, amplitude=0.35):
     """A roundish irregular blob (clutter c2): boundary radius
     r(phi) = radius (1 + sum_k a_k cos(k phi + phase_k)), k = 2, 3, 5, with
-    sum |a_k| = amplitude (random split and phases)."""
+    the sum of the ``|a_k|`` is the amplitude (random split and phases)."""
     rng = as_rng(rng)
     radius = as_positive(radius, "radius")
     a = rng.dirichlet(np.ones(3)) * amplitude
@@ -298,7 +298,7 @@ class ViBe:
 
 
 class RunningAverage:
-    """Selective running average: foreground if |I - B| > threshold;
+    """Selective running average: foreground if ``|I - B| > threshold``;
     B <- (1 - alpha) B + alpha I on background pixels only."""
 
     def __init__(self, first_frame, alpha=0.05, threshold=12.0):
@@ -487,7 +487,7 @@ def ncc(A, B, s=4, kind="mask"):
     spec's symmetric definition: both placed centred on a common canvas of
     size (max h + 2s) x (max w + 2s), filled with 0 (``kind="mask"``) or with
     the median of each patch's border rows (``kind="grey"``); B shifted by
-    every integer (u, v) with |u|, |v| <= s; the maximum NCC over the canvas.
+    every integer (u, v) with ``|u|, |v| <= s``; the maximum NCC over the canvas.
     A constant canvas has NCC 0."""
     A = _check_patch(A, "A")
     B = _check_patch(B, "B")

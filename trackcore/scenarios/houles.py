@@ -1,9 +1,9 @@
 """The Houles & Bar-Shalom (1989) manoeuvring-target scenario used by Yoon & Ko (sec. 4.3).
 
-Truth: start at (21689, 10840) m with velocity (-8.3, -399.9) m/s (|v| = 399.986,
+Truth: start at (21689, 10840) m with velocity (-8.3, -399.9) m/s (speed 399.986,
 "400 m/s"), constant speed; a right (clockwise) turn at 60 m/s^2 on [20, 35) s
-(turn rate -60/|v| = -0.150005 rad/s) and a left turn at 40 m/s^2 on [55, 70) s
-(+40/|v| = +0.100003 rad/s), straight flight otherwise.  (Rounding the rates to
+(turn rate -60/speed = -0.150005 rad/s) and a left turn at 40 m/s^2 on [55, 70) s
+(+40/speed = +0.100003 rad/s), straight flight otherwise.  (Rounding the rates to
 -0.15/+0.10 rad/s moves the t = 90 s position by about 1.5 m.)  The final leg passes within 0.71 m of the sensor at
 the origin at t = 90.003 s, so the scenario lasts 90 s (scans t = 0, 1, ..., 90).
 The truth is propagated in closed form with the exact coordinated-turn

@@ -5,11 +5,11 @@ Sensor model (Rutten et al.'s, in our cell geometry).  Each scan is a map of
 *unthresholded* noise-normalised cell powers over a range–azimuth–elevation grid with
 cell sizes ``Δr`` (m) and ``Δθ`` (rad, azimuth and elevation).  Cell ``c = (i, j, l)`` has
 its centre at ``(i Δr, j Δθ, l Δθ)``.  A target at ``(r, az, el)`` with per-scan SNR ``S``
-(linear, peak-cell) gives
+(linear, peak-cell) gives::
 
     z_c = |sqrt(S) e^{iφ} h_c(x) + n_c|^2,   n_c ~ CN(0, 1)  (noise power 1),
 
-with the amplitude point-spread function (PSF)
+with the amplitude point-spread function (PSF)::
 
     h_c(x) = exp(-d_c^2 / (4 β^2)),   d_c^2 = (i - r/Δr)^2 + (j - az/Δθ)^2 + (l - el/Δθ)^2,
 
@@ -19,7 +19,7 @@ truncated to the 3 × 3 × 3 footprint around the cell nearest to the target (be
 
 Likelihood ratio (Salmond–Birch / Rutten).  The cells are independent given the state,
 so the likelihood of the whole map divided by its noise-only likelihood reduces to the
-footprint of the particle:
+footprint of the particle::
 
     log ℓ(z | x) = Σ_{c ∈ footprint(x)} [ log I0(2 sqrt(S) h_c(x) sqrt(z_c)) - S h_c(x)^2 ],
 
