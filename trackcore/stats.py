@@ -102,14 +102,14 @@ class Estimate:
         if not 0.0 < self.level < 1.0:
             raise ValueError(f"Estimate: level must lie in (0, 1), got {self.level}")
 
-    def __format__(self, spec: str) -> str:
-        spec = spec or ".3g"
-        if spec.endswith("%"):
-            inner = spec[:-1] + "f"
+    def __format__(self, format_spec: str) -> str:
+        format_spec = format_spec or ".3g"
+        if format_spec.endswith("%"):
+            inner = format_spec[:-1] + "f"
             v, lo, hi = (format(100.0 * float(x), inner)
                          for x in (self.value, self.lo, self.hi))
             return f"{v} [{lo}, {hi}] %"
-        v, lo, hi = (format(float(x), spec) for x in (self.value, self.lo, self.hi))
+        v, lo, hi = (format(float(x), format_spec) for x in (self.value, self.lo, self.hi))
         return f"{v} [{lo}, {hi}]"
 
     def __str__(self) -> str:
