@@ -24,7 +24,8 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-from ..core.validation import as_array, as_probability, as_scalar
+from ..core.validation import (as_array, as_count, as_positive, as_probability, as_rng,
+                               as_scalar)
 
 __all__ = [
     "SPRT_H0",
@@ -37,10 +38,12 @@ __all__ = [
     "sprt_step",
     "sprt_test",
     "sprt_decide",
-    "sprt_decide_kernel",
     "SprtSummary",
     "sprt_summary",
+    "first_crossing_scan",
+    "gaussian_llr_walks",
     "wald_error_probabilities",
+    "wald_expected_stopping_llr",
     "wald_oc",
     "wald_asn",
     "wald_gaussian_oc_asn",
@@ -196,6 +199,20 @@ def wald_error_probabilities(gamma0, gamma1):
     return pf, pm
 
 
+def wald_expected_stopping_llr(gamma0, gamma1, p_decide_h0):
+    """Wald's ``E[Lambda_N] = L gamma0 + (1 - L) gamma1`` at the stopping scan ``N``.
+
+    ``L = p_decide_h0``.  Neglecting the overshoot, the test stops exactly on a
+    threshold, so the mean of ``Lambda`` at the stop is the average of the two
+    thresholds weighted by the probabilities of reaching them.  Under H0 with
+    Wald's ``P_F`` (:func:`wald_error_probabilities`) it is
+    ``(1 - P_F) gamma0 + P_F gamma1``.
+    """
+    g0, g1 = _check_thresholds(gamma0, gamma1)
+    L = as_probability(p_decide_h0, "p_decide_h0")
+    return L * g0 + (1.0 - L) * g1
+
+
 def wald_oc(h, gamma0, gamma1):
     """Wald's operating characteristic: probability of deciding H0.
 
@@ -223,8 +240,9 @@ def wald_oc(h, gamma0, gamma1):
 def wald_asn(mean_increment, gamma0, gamma1, p_decide_h0):
     """Wald's average sample number ``E[k] = (L gamma0 + (1 - L) gamma1) / E[lambda]``.
 
-    ``L = p_decide_h0``; under H0 with ``P_F`` this is the spec's
-    ``((1 - P_F) gamma0 + P_F gamma1) / E[lambda | H0]``.  ``mean_increment``
+    ``L = p_decide_h0``; under H0 with ``P_F`` this is
+    ``((1 - P_F) gamma0 + P_F gamma1) / E[lambda | H0]``, the ratio of
+    :func:`wald_expected_stopping_llr` to the mean increment (Wald's identity).  ``mean_increment``
     must be non-zero (use :func:`wald_gaussian_oc_asn` for the zero-drift limit).
     """
     mu = as_scalar(mean_increment, "mean_increment")
@@ -257,6 +275,48 @@ def wald_gaussian_oc_asn(mean, var, gamma0, gamma1):
     return L, (L * g0 + (1.0 - L) * g1) / mu
 
 
+def first_crossing_scan(path, level):
+    """Fractional scan at which a path ``path[k-1] = Lambda(k)``, ``k = 1..K``, first
+    reaches ``level``, by linear interpolation between scans (``Lambda(0) = 0``).
+
+    A negative ``level`` is reached from above (``Lambda <= level``), a positive
+    one from below.  Returns ``nan`` if the path never reaches it.  The paper
+    reads such a crossing off the run-averaged Lambda (eq 29) and quotes it with
+    one decimal (scan 5.4 in its Fig. 5).
+    """
+    p = as_array(path, "path", ndim=1)
+    lev = as_scalar(level, "level")
+    if lev == 0.0:
+        raise ValueError("level must be non-zero (the path starts at Lambda(0) = 0)")
+    sgn = 1.0 if lev > 0 else -1.0
+    prev = 0.0
+    for i, v in enumerate(p):
+        if sgn * v >= sgn * lev:
+            return float(i + (lev - prev) / (v - prev)) if v != prev else float(i + 1)
+        prev = v
+    return float("nan")
+
+
+def gaussian_llr_walks(var, n_runs, n_scans, rng, h1_true=False):
+    """Cumulative log-likelihood ratios of a test that *is* a true likelihood ratio.
+
+    The increments are i.i.d. ``N(-var/2, var)`` under H0 (``N(+var/2, var)`` with
+    ``h1_true``): the exact LLR of one Gaussian datum whose mean shifts by
+    ``sqrt(var)`` standard deviations between the hypotheses.  For such a walk
+    ``E[exp(Lambda(k)) | H0] = 1`` at every scan and Wald's ``h = 1``; it is the
+    reference against which the book measures the calibration of an approximate
+    statistic.  Returns an ``(n_runs, n_scans)`` array.
+    """
+    v = as_positive(var, "var")
+    n = as_count(n_runs, "n_runs")
+    K = as_count(n_scans, "n_scans")
+    g = as_rng(rng)
+    if not isinstance(h1_true, (bool, np.bool_)):
+        raise TypeError(f"h1_true must be a bool, got {type(h1_true).__name__}")
+    mean = 0.5 * v if h1_true else -0.5 * v
+    return np.cumsum(g.normal(mean, math.sqrt(v), size=(n, K)), axis=1)
+
+
 class SprtSummary(NamedTuple):
     """Monte Carlo summary of SPRT runs whose true hypothesis is ``truth``."""
     n_runs: int
@@ -269,6 +329,7 @@ class SprtSummary(NamedTuple):
     mean_llr_crossing: int    # first scan at which the run-averaged Lambda crosses a threshold (0: none)
     counts_correct: np.ndarray  # (K,) number of correct decisions at scan k = 1..K
     counts_wrong: np.ndarray    # (K,) number of wrong decisions at scan k
+    mean_llr_crossing_scan: float  # the same crossing interpolated between scans (nan: none)
 
 
 def sprt_summary(llr, gamma0, gamma1, truth=SPRT_H0):
@@ -276,7 +337,8 @@ def sprt_summary(llr, gamma0, gamma1, truth=SPRT_H0):
 
     ``truth`` is the hypothesis that generated the data (0 or 1).  The
     mean-Lambda crossing is the first scan at which the average of ``llr`` over
-    the runs (paper eq 29) reaches ``gamma0`` or ``gamma1``.
+    the runs (paper eq 29) reaches ``gamma0`` or ``gamma1``; it is given both as
+    a whole scan and interpolated (:func:`first_crossing_scan`).
     """
     L = as_array(llr, "llr", ndim=2)
     if truth not in (SPRT_H0, SPRT_H1) or isinstance(truth, bool):
@@ -291,9 +353,15 @@ def sprt_summary(llr, gamma0, gamma1, truth=SPRT_H0):
     def _mean(mask):
         return float(k[mask].mean()) if np.any(mask) else float("nan")
 
-    md, mk = sprt_decide(L.mean(axis=0), gamma0, gamma1)
+    mean_path = L.mean(axis=0)
+    md, mk = sprt_decide(mean_path, gamma0, gamma1)
+    g0, g1 = _check_thresholds(gamma0, gamma1)
+    if md == SPRT_UNDECIDED:
+        crossing = float("nan")
+    else:
+        crossing = first_crossing_scan(mean_path, g1 if md == SPRT_H1 else g0)
     return SprtSummary(L.shape[0], float(good.mean()), float(bad.mean()),
                        float(np.mean(d == SPRT_UNDECIDED)), _mean(good), _mean(bad),
                        _mean(d != SPRT_UNDECIDED), int(mk),
                        np.bincount(k[good], minlength=K + 1)[1:],
-                       np.bincount(k[bad], minlength=K + 1)[1:])
+                       np.bincount(k[bad], minlength=K + 1)[1:], crossing)

@@ -33,15 +33,16 @@ __all__ = [
     "modified_polar_f",
     "modified_polar_F",
     "modified_polar_Q",
-    "modified_polar_f_kernel",
-    "modified_polar_F_kernel",
     "modified_polar_from_cartesian",
 ]
 
 
 @nb.njit(cache=True)
 def modified_polar_f_kernel(theta, beta, u1, u2, out):
-    """Write ``f([theta, beta], [u1, u2])`` into ``out`` (2,); returns False if S1 = S2 = 0."""
+    """Write ``f([theta, beta], [u1, u2])`` into ``out`` (2,); returns False if S1 = S2 = 0.
+
+    Kernel (not public): assumes ``out`` has 2 elements; see :func:`modified_polar_f`.
+    """
     c = math.cos(theta)
     s = math.sin(theta)
     a = -u2 * c + u1 * s
