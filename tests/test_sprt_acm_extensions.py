@@ -221,3 +221,52 @@ def test_wald_expected_stopping_llr():
         wald_expected_stopping_llr(-1.0, 1.0, 1.5)
     with pytest.raises(ValueError, match="gamma0"):
         wald_expected_stopping_llr(1.0, 1.0, 0.5)
+
+
+def test_huge_and_tiny_inputs_give_clear_errors_or_finite_results():
+    from trackcore.detection import (SprtState, sprt_step, sprt_symmetric_error,
+                                     wald_gaussian_oc_asn)
+    from trackcore.models import modified_polar_F, modified_polar_f, modified_polar_Q
+    from trackcore.trackers import sprt_acm_llr
+    assert sprt_symmetric_error(1e300) == 0.0
+    with pytest.raises(ValueError, match="overflow"):
+        modified_polar_F([0.1, 1e300], [1e300, 1.0])
+    assert np.all(np.isfinite(modified_polar_f([0.1, 1e300], [1e300, 1e300])))
+    with pytest.raises(ValueError, match="overflow"):
+        modified_polar_Q([0.1, 1e300], 1e300, 1e300)
+    with pytest.raises(ValueError, match="mean / var"):
+        wald_gaussian_oc_asn(1e300, 1e-300, -1.0, 1.0)
+    with pytest.raises(ValueError, match="var"):
+        gaussian_llr_walks(1e308, 3, 5, np.random.default_rng(0))
+    with pytest.raises(ValueError, match="lam"):
+        sprt_acm_llr(np.full((2, 4), 1e308))
+    assert np.isnan(sprt_acm_llr(np.full((1, 4), np.nan))).all()  # a failed run stays NaN
+    assert first_crossing_scan([1e308, -1e308], -1.0) == pytest.approx(1.5)
+    # the online state validates its fields, and the step cannot overflow silently
+    for bad, exc in ((dict(llr=float("nan")), ValueError), (dict(k=-1), ValueError),
+                     (dict(decision=2), ValueError), (dict(decision=0, scan=0), ValueError),
+                     (dict(k=1.5), TypeError), (dict(scan=3), ValueError)):
+        with pytest.raises(exc):
+            SprtState(**bad)
+    with pytest.raises(ValueError, match="overflow"):
+        sprt_step(SprtState(llr=1e308), 1e308, -1.0, 1.0)
+    # scenario and measurement magnitudes far beyond any sonar are refused by name
+    for field in ("R0", "target_speed", "decoy_speed", "sigma_r", "T", "turn_accel"):
+        with pytest.raises(ValueError, match=field):
+            sprt_acm_scenario(2, **{field: 1e300})
+    with pytest.raises(ValueError, match="t_release"):
+        sprt_acm_scenario(1, t_release=1e-300)
+    with pytest.raises(ValueError, match="R0"):
+        sprt_acm_scenario(1, R0=1e-300)
+    sc = sprt_acm_scenario(1)
+    truth = sprt_acm_truth(sc)
+    z = sprt_acm_measurements(sc, np.random.default_rng(0), truth)
+    big = z.z_a.copy()
+    big[2, 0] = 1e300
+    with pytest.raises(ValueError, match="z_a"):
+        sprt_acm_discriminate(z.z_pre, big, z.z_b, truth.own, sc.T)
+    with pytest.raises(ValueError, match="own_states"):
+        sprt_acm_discriminate(z.z_pre, z.z_a, z.z_b, truth.own * 1e300, sc.T)
+    for field in ("sigma_r", "manoeuvre_accel", "beta_std_factor"):
+        with pytest.raises(ValueError, match=field):
+            SprtAcmFilterConfig(**{field: 1e300})

@@ -19,6 +19,7 @@ characteristic (OC) and the average sample number (ASN).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numba as nb
@@ -61,12 +62,44 @@ class SprtResult(NamedTuple):
     llr: np.ndarray     # cumulative log-likelihood ratio Lambda(k), k = 1..K
 
 
-class SprtState(NamedTuple):
-    """State of an online SPRT after ``k`` scans (immutable; see :func:`sprt_step`)."""
-    llr: float = 0.0             # Lambda(k); Lambda(0) = 0 (equal priors)
-    k: int = 0                   # scans taken so far
+@dataclass(frozen=True)
+class SprtState:
+    """State of an online SPRT after ``k`` scans (immutable; see :func:`sprt_step`).
+
+    Attributes
+    ----------
+    llr : float
+        ``Lambda(k)``; ``Lambda(0) = 0`` (equal priors).
+    k : int
+        Scans taken so far (>= 0).
+    decision : int
+        ``SPRT_H0``, ``SPRT_H1`` or ``SPRT_UNDECIDED``.
+    scan : int
+        Scan of the decision, ``1 <= scan <= k`` (0 while undecided).
+
+    The fields are checked when the record is built (``ValueError`` or
+    ``TypeError`` naming the field).
+    """
+    llr: float = 0.0
+    k: int = 0
     decision: int = SPRT_UNDECIDED
-    scan: int = 0                # scan of the decision (0 while undecided)
+    scan: int = 0
+
+    def __post_init__(self):
+        as_scalar(self.llr, "llr")
+        for name in ("k", "decision", "scan"):
+            v = getattr(self, name)
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
+                raise TypeError(f"{name} must be an integer, got {type(v).__name__}")
+        if self.k < 0:
+            raise ValueError(f"k must be >= 0, got {self.k}")
+        if self.decision not in (SPRT_H0, SPRT_H1, SPRT_UNDECIDED):
+            raise ValueError(f"decision must be 0 (H0), 1 (H1) or -1 (undecided), "
+                             f"got {self.decision}")
+        if self.decision == SPRT_UNDECIDED and self.scan != 0:
+            raise ValueError(f"scan must be 0 while undecided, got {self.scan}")
+        if self.decision != SPRT_UNDECIDED and not 1 <= self.scan <= self.k:
+            raise ValueError(f"scan must lie in [1, k={self.k}] once decided, got {self.scan}")
 
 
 def _check_thresholds(gamma0, gamma1):
@@ -103,7 +136,8 @@ def sprt_symmetric_error(gamma):
     g = as_scalar(gamma, "gamma")
     if not g > 0.0:
         raise ValueError(f"gamma must be > 0, got {g}")
-    return 1.0 / (1.0 + math.exp(g))
+    e = math.exp(-g)  # 1 / (1 + e^g) without overflow
+    return e / (1.0 + e)
 
 
 def sprt_step(state, increment, gamma0, gamma1):
@@ -117,6 +151,8 @@ def sprt_step(state, increment, gamma0, gamma1):
     inc = as_scalar(increment, "increment")
     g0, g1 = _check_thresholds(gamma0, gamma1)
     llr = state.llr + inc
+    if not math.isfinite(llr):
+        raise ValueError(f"increment {inc:g} makes Lambda overflow (state.llr = {state.llr:g})")
     k = state.k + 1
     decision, scan = state.decision, state.scan
     if decision == SPRT_UNDECIDED:
@@ -269,6 +305,9 @@ def wald_gaussian_oc_asn(mean, var, gamma0, gamma1):
         raise ValueError(f"var must be > 0, got {v}")
     g0, g1 = _check_thresholds(gamma0, gamma1)
     h = -2.0 * mu / v
+    if not math.isfinite(h):
+        raise ValueError(f"mean / var out of range: h = -2 mean / var overflows "
+                         f"(mean={mu:g}, var={v:g})")
     L = wald_oc(h, g0, g1)
     if abs(h) < 1e-10:
         return L, -g0 * g1 / v
@@ -292,7 +331,11 @@ def first_crossing_scan(path, level):
     prev = 0.0
     for i, v in enumerate(p):
         if sgn * v >= sgn * lev:
-            return float(i + (lev - prev) / (v - prev)) if v != prev else float(i + 1)
+            if v == prev:
+                return float(i + 1)
+            sc = max(abs(v), abs(prev), abs(lev))  # scaled: no overflow for any finite path
+            frac = (lev / sc - prev / sc) / (v / sc - prev / sc)
+            return float(i + min(max(frac, 0.0), 1.0))
         prev = v
     return float("nan")
 
@@ -314,7 +357,11 @@ def gaussian_llr_walks(var, n_runs, n_scans, rng, h1_true=False):
     if not isinstance(h1_true, (bool, np.bool_)):
         raise TypeError(f"h1_true must be a bool, got {type(h1_true).__name__}")
     mean = 0.5 * v if h1_true else -0.5 * v
-    return np.cumsum(g.normal(mean, math.sqrt(v), size=(n, K)), axis=1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = np.cumsum(g.normal(mean, math.sqrt(v), size=(n, K)), axis=1)
+    if not np.all(np.isfinite(out)):
+        raise ValueError(f"var = {v:g} is too large: the cumulative sums overflow")
+    return out
 
 
 class SprtSummary(NamedTuple):

@@ -52,13 +52,22 @@ __all__ = [
 ]
 
 
+_CAPS = {"T": 1e4, "R0": 1e8, "alpha_deg": 1e6, "lead_deg": 1e6, "gamma": 1e4,
+         "target_turn_deg": 1e6, "pursuer_turn_deg": 1e6, "turn_accel": 1e4,
+         "target_speed": 1e4, "pursuer_speed": 1e4, "decoy_speed": 1e4, "t_release": 1e6,
+         "t_end": 1e6, "sigma_r": 1e6, "sigma_theta": 10.0, "sigma_rdot": 1e4,
+         "target_accel_psd": 1e8}
+
+
 @dataclass(frozen=True)
 class SprtAcmScenario:
     """Parameters of one scenario (angles in degrees, SI units otherwise).
 
     Every field is checked when the record is built: ``TypeError`` for a
     non-number, ``ValueError`` naming the field for a non-finite or
-    out-of-range value, or scan times that are not whole multiples of ``T``.
+    out-of-range value (each field also has a generous upper bound, far beyond
+    any sonar scenario, so that the simulation stays finite), or scan times that
+    are not whole multiples of ``T``.
 
     Attributes
     ----------
@@ -123,8 +132,17 @@ class SprtAcmScenario:
             v = getattr(self, f)
             if not v > 0:
                 raise ValueError(f"{f} must be > 0, got {v!r}")
+        for f, cap in _CAPS.items():  # far beyond any sonar scenario; keeps the maths finite
+            v = getattr(self, f)
+            if abs(v) > cap:
+                raise ValueError(f"{f} is out of range (|{f}| at most {cap:g}), got {v!r}")
         if not self.target_accel_psd >= 0:
             raise ValueError(f"target_accel_psd must be >= 0, got {self.target_accel_psd!r}")
+        if not self.t_release >= self.T:
+            raise ValueError(f"t_release must be at least T (one scan before the release), "
+                             f"got t_release={self.t_release}, T={self.T}")
+        if not self.R0 >= 1.0:
+            raise ValueError(f"R0 must be at least 1 m, got {self.R0!r}")
         if not self.t_end >= self.t_release:
             raise ValueError(f"t_end must be >= t_release, got t_end={self.t_end}, "
                              f"t_release={self.t_release}")
@@ -217,6 +235,9 @@ def sprt_acm_states(scenario, t):
                    sc.pursuer_turn_deg, sc.pursuer_speed, sc.turn_accel, sc.t_release, t)
     tgt = _vehicle(np.array([0.0, sc.R0]), _course_vector(sc.target_speed, sc.alpha_deg),
                    sc.target_turn_deg, sc.target_speed, sc.turn_accel, sc.t_release, t)
+    if not (np.all(np.isfinite(own)) and np.all(np.isfinite(tgt))):
+        raise ValueError("the scenario's speeds, turns and times give non-finite trajectories "
+                         "(parameters far outside a physical range)")
     return own, tgt, np.array([0.0, sc.R0])
 
 
@@ -288,6 +309,10 @@ def sprt_acm_measurements(scenario, rng, truth=None, h1_true=False):
             dev[i] = F @ dev[i - 1] + w[i - n0 - 1]
         target = target + dev
     rel = target - truth.own
+    hit = np.hypot(rel[:, 0], rel[:, 1]) == 0.0
+    if np.any(hit):
+        raise ValueError(f"the scenario puts the target on the pursuer at t = "
+                         f"{truth.times[np.argmax(hit)]:g} s (zero range)")
     z_t = range_bearing_doppler(rel)
     n_pre = truth.n_pre
     z_pre = z_t[:n_pre] + rng.standard_normal((n_pre, 3)) * sig

@@ -71,6 +71,7 @@ __all__ = [
 ]
 
 SPRT_ACM_FILTERS = ("a0", "b0", "a1", "b1")
+_Z_CAP = 1e9  # largest |measurement| or |own-ship state| accepted (m, rad, m/s)
 SPRT_ACM_TARGET_MODELS = ("cv", "imm", "boost")
 
 
@@ -162,6 +163,8 @@ def _check_real(record, name, positive):
     v = float(v)
     if not math.isfinite(v):
         raise ValueError(f"{name} must be finite, got {v}")
+    if v > 1e60:  # its square or fourth power enters covariances
+        raise ValueError(f"{name} is out of range (at most 1e60), got {v}")
     if positive and not v > 0.0:
         raise ValueError(f"{name} must be > 0, got {v}")
     if not positive and not v >= 0.0:
@@ -406,7 +409,11 @@ def sprt_acm_llr(lam):
     L = as_array(lam, "lam", finite=False)
     if L.ndim < 1 or L.shape[-1] != 4:
         raise ValueError(f"lam must have last dimension 4 (a0, b0, a1, b1), got shape {L.shape}")
-    return -L[..., 0] - L[..., 1] + L[..., 2] + L[..., 3]
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = -L[..., 0] - L[..., 1] + L[..., 2] + L[..., 3]
+    if np.any(np.isfinite(L).all(axis=-1) & ~np.isfinite(out)):
+        raise ValueError("lam out of range: the sum of eq (21) overflows")
+    return out
 
 
 def _config(config):
@@ -475,13 +482,22 @@ def sprt_acm_discriminate(z_pre, z_a, z_b, own_states, T, config=None):
         raise ValueError(f"z_b must have the shape of z_a {za.shape[1:]}, got {zb.shape[1:]}")
     if np.any(zp[:, :, 0] <= 0) or np.any(za[:, :, 0] <= 0) or np.any(zb[:, :, 0] <= 0):
         raise ValueError("measured ranges (column 0 of z_pre, z_a, z_b) must be > 0")
+    for name, z in (("z_pre", zp), ("z_a", za), ("z_b", zb)):
+        if np.any(np.abs(z) > _Z_CAP):  # far beyond any sonar; keeps the filters finite
+            raise ValueError(f"{name} is out of range: |r|, |theta| and |rdot| at most "
+                             f"{_Z_CAP:g}")
     own = as_array(own_states, "own_states", shape=(n_pre + K, 4))
+    if np.any(np.abs(own) > _Z_CAP):
+        raise ValueError(f"own_states is out of range: at most {_Z_CAP:g} in magnitude")
     Phi = cv_transition(T, 2)
-    Qa = cv_process_noise(T, cfg.sigma_v ** 2, 2, kind="cwna")
-    Qs, PI, mu0, Qb, n_boost = _target_modes(cfg, T)
+    with np.errstate(over="ignore", invalid="ignore"):
+        Qa = cv_process_noise(T, cfg.sigma_v ** 2, 2, kind="cwna")
+        Qs, PI, mu0, Qb, n_boost = _target_modes(cfg, T)
     Ra = np.diag([cfg.sigma_r ** 2, cfg.sigma_theta ** 2, cfg.sigma_rdot ** 2])
     Rb = np.array([[cfg.sigma_theta ** 2]])
     P0 = np.diag([cfg.init_pos_std ** 2] * 2 + [cfg.init_vel_std ** 2] * 2)
+    if not all(np.all(np.isfinite(a)) for a in (Qa, Qs, Ra, Rb, P0, Qb)):
+        raise ValueError("config and T out of range: a filter covariance overflows")
     lam = np.empty((N, K, 4))
     nis = np.empty((N, K, 4))
     beta = np.empty((N, K, 2))
@@ -491,6 +507,10 @@ def sprt_acm_discriminate(z_pre, z_a, z_b, own_states, T, config=None):
                                  P0,
                                  cfg.sigma_p ** 2 * T, float(cfg.beta_std_factor),
                                  float(cfg.sigma_theta), lam, nis, beta, mu, ok)
+    bad = ok & ~np.all(np.isfinite(lam), axis=(1, 2))
+    if np.any(bad):
+        raise ValueError(f"run {int(np.argmax(bad))}: the filters overflowed; the "
+                         "measurements, own_states or config are far outside a physical range")
     llr = sprt_acm_llr(lam)
     if single:
         return SprtAcmDiscrimination(lam[0], llr[0], nis[0], beta[0], mu[0], bool(ok[0]))
