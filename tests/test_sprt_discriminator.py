@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from trackcore.filters import ekf_update, kf_predict
+from trackcore.filters import ekf_update, imm_mix, imm_mode_update, kf_predict
 from trackcore.models import (cv_process_noise, cv_transition, modified_polar_F, modified_polar_f,
                               modified_polar_Q, range_bearing_doppler,
                               range_bearing_doppler_jacobian)
@@ -20,14 +20,30 @@ def run_data():
     return sc, truth, z
 
 
+def _target_modes_reference(cfg, T):
+    """The post-release target filter as (list of mode PSDs per scan k, PI, mu0)."""
+    q_cv = cfg.sigma_v**2
+    q_m = cfg.manoeuvre_accel**2 * T
+    if cfg.target_model == "cv":
+        return (lambda k: [q_cv]), None, None
+    if cfg.target_model == "boost":
+        n_boost = math.ceil(cfg.boost_time / T - 1e-9)
+        return (lambda k: [q_m if k <= n_boost else q_cv]), None, None
+    p1, p2 = cfg.p_stay_cv, cfg.p_stay_manoeuvre
+    PI = np.array([[p1, 1 - p1], [1 - p2, p2]])
+    m = (1 - p1) / ((1 - p1) + (1 - p2))
+    return (lambda k: [q_cv, q_m]), PI, np.array([1 - m, m])
+
+
 def reference(z, truth, T, cfg):
-    """Independent Python route through the foundation's public EKF functions."""
+    """Independent Python route through the foundation's public EKF and IMM functions."""
     Phi = cv_transition(T)
     Qa = cv_process_noise(T, cfg.sigma_v**2, kind="cwna")
     Ra = np.diag([cfg.sigma_r**2, cfg.sigma_theta**2, cfg.sigma_rdot**2])
     Rb = np.array([[cfg.sigma_theta**2]])
     own = truth.own
     n0 = truth.n_pre
+    psds, PI, mu0 = _target_modes_reference(cfg, T)
 
     def u_a(j):
         return np.r_[own[j, :2] - own[j - 1, :2] - T * own[j - 1, 2:], own[j, 2:] - own[j - 1, 2:]]
@@ -48,18 +64,36 @@ def reference(z, truth, T, cfg):
     K = z.z_a.shape[0]
     lam = np.zeros((K, 4))
     nis = np.full((K, 4), np.nan)
-    tgt = {0: (xp, Pp), 3: (xp, Pp)}
+    mu_out = np.full((K, 2), np.nan)
+    tgt = {}
     acm = {}
     acc = np.zeros(4)
     for k in range(K):
         j = n0 + k
-        for col, zz in ((0, z.z_a[k]), (3, z.z_b[k])):
-            x, P = tgt[col]
-            if k > 0:
-                x, P = kf_predict(x, P, Phi, Qa)
-                x = x - u_a(j)
-            x, P, ll, v = tupdate(x, P, zz)
-            tgt[col] = (x, P)
+        for slot, (col, zz) in enumerate(((0, z.z_a[k]), (3, z.z_b[k]))):
+            if k == 0:
+                modes = [tupdate(xp, Pp, zz) for _ in psds(k)]
+                mu = None if PI is None else mu0.copy()
+                ll, v = modes[0][2], modes[0][3]
+            else:
+                xs, Ps, mu = tgt[col]
+                if PI is not None:
+                    xs, Ps, c_bar = imm_mix(mu, PI, np.array(xs), np.array(Ps))
+                out = []
+                for m, q in enumerate(psds(k)):
+                    xm, Pm = kf_predict(xs[m], Ps[m], Phi, cv_process_noise(T, q, kind="cwna"))
+                    out.append(tupdate(xm - u_a(j), Pm, zz))
+                modes = out
+                if PI is None:
+                    ll, v = modes[0][2], modes[0][3]
+                else:
+                    lls = np.array([o[2] for o in modes])
+                    ll = math.log(np.sum(c_bar * np.exp(lls)))
+                    mu = imm_mode_update(c_bar, lls)
+                    v = float(np.sum(c_bar * np.array([o[3] for o in modes])))
+            tgt[col] = ([o[0] for o in modes], [o[1] for o in modes], mu)
+            if mu is not None:
+                mu_out[k, slot] = mu[1]
             acc[col] += ll
             nis[k, col] = v
         for col, zz in ((1, z.z_b[k]), (2, z.z_a[k])):
@@ -77,18 +111,22 @@ def reference(z, truth, T, cfg):
             acc[col] += up.loglik + 0.5 * math.log(2 * math.pi)
             nis[k, col] = up.nis
         lam[k] = acc
-    return lam, nis
+    return lam, nis, mu_out
 
 
-@pytest.mark.parametrize("factor", [2.0, 0.5])
-def test_matches_foundation_route(run_data, factor):
+@pytest.mark.parametrize("changes", [dict(beta_std_factor=2.0), dict(beta_std_factor=0.5),
+                                     dict(target_model="boost"),
+                                     dict(target_model="boost", boost_time=5.0),
+                                     dict(target_model="imm", beta_std_factor=0.2)])
+def test_matches_foundation_route(run_data, changes):
     sc, truth, z = run_data
-    cfg = SprtAcmFilterConfig(beta_std_factor=factor)
+    cfg = SprtAcmFilterConfig(**changes)
     res = sprt_acm_discriminate(z.z_pre, z.z_a, z.z_b, truth.own, sc.T, cfg)
-    lam, nis = reference(z, truth, sc.T, cfg)
+    lam, nis, mu = reference(z, truth, sc.T, cfg)
     assert res.ok
     np.testing.assert_allclose(res.lam, lam, rtol=1e-8, atol=1e-8)
     np.testing.assert_allclose(res.nis, nis, rtol=1e-8, atol=1e-10)
+    np.testing.assert_allclose(res.mu, mu, rtol=1e-8, atol=1e-12)
     np.testing.assert_allclose(res.llr, -lam[:, 0] - lam[:, 1] + lam[:, 2] + lam[:, 3], atol=1e-8)
 
 
@@ -152,7 +190,7 @@ def test_bad_input(run_data):
         sprt_acm_discriminate(*args[:4], 0.0)
     with pytest.raises(TypeError, match="config"):
         sprt_acm_discriminate(*args, config={"sigma_r": 5})
-    with pytest.raises(ValueError, match="config.sigma_r"):
-        sprt_acm_discriminate(*args, config=SprtAcmFilterConfig(sigma_r=0.0))
+    with pytest.raises(ValueError, match="sigma_r"):
+        SprtAcmFilterConfig(sigma_r=0.0)
     with pytest.raises(ValueError, match="lam"):
         sprt_acm_llr(np.zeros((3, 5)))

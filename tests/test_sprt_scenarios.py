@@ -1,4 +1,4 @@
-"""Tests for trackcore.scenarios.sprt_acm (geometry of spec sec. 6.2, ACM measurements)."""
+"""Tests for trackcore.scenarios.sprt_acm (the chapter's geometry, ACM measurements)."""
 import math
 
 import numpy as np
@@ -9,7 +9,7 @@ from trackcore.montecarlo import run, stack_results
 from trackcore.scenarios import (sprt_acm_measurements, sprt_acm_monte_carlo, sprt_acm_scenario,
                                  sprt_acm_states, sprt_acm_trial, sprt_acm_truth)
 
-# spec sec. 6.2 table: target / pursuer at t = 0, ranges at t = 0 and 90 s
+# the chapter's geometry: target / pursuer at t = 0, ranges at t = 0 and 90 s
 TABLE = {
     1: ((-653.37, 346.63), (0.0, -1386.0), 1851.7, 712.9),
     2: ((-120.61, 83.90), (358.72, -1338.77), 1501.3, 658.5),
@@ -18,7 +18,7 @@ TABLE = {
 
 
 @pytest.mark.parametrize("num", [1, 2, 3])
-def test_geometry_matches_spec_table(num):
+def test_geometry_matches_table(num):
     sc = sprt_acm_scenario(num)
     own, tgt, acm = sprt_acm_states(sc, np.array([0.0, 60.0, 90.0]))
     t0, o0, r0, r90 = TABLE[num]

@@ -19,12 +19,14 @@ characteristic (OC) and the average sample number (ASN).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numba as nb
 import numpy as np
 
-from ..core.validation import as_array, as_probability, as_scalar
+from ..core.validation import (as_array, as_count, as_positive, as_probability, as_rng,
+                               as_scalar)
 
 __all__ = [
     "SPRT_H0",
@@ -37,10 +39,12 @@ __all__ = [
     "sprt_step",
     "sprt_test",
     "sprt_decide",
-    "sprt_decide_kernel",
     "SprtSummary",
     "sprt_summary",
+    "first_crossing_scan",
+    "gaussian_llr_walks",
     "wald_error_probabilities",
+    "wald_expected_stopping_llr",
     "wald_oc",
     "wald_asn",
     "wald_gaussian_oc_asn",
@@ -58,12 +62,44 @@ class SprtResult(NamedTuple):
     llr: np.ndarray     # cumulative log-likelihood ratio Lambda(k), k = 1..K
 
 
-class SprtState(NamedTuple):
-    """State of an online SPRT after ``k`` scans (immutable; see :func:`sprt_step`)."""
-    llr: float = 0.0             # Lambda(k); Lambda(0) = 0 (equal priors)
-    k: int = 0                   # scans taken so far
+@dataclass(frozen=True)
+class SprtState:
+    """State of an online SPRT after ``k`` scans (immutable; see :func:`sprt_step`).
+
+    Attributes
+    ----------
+    llr : float
+        ``Lambda(k)``; ``Lambda(0) = 0`` (equal priors).
+    k : int
+        Scans taken so far (>= 0).
+    decision : int
+        ``SPRT_H0``, ``SPRT_H1`` or ``SPRT_UNDECIDED``.
+    scan : int
+        Scan of the decision, ``1 <= scan <= k`` (0 while undecided).
+
+    The fields are checked when the record is built (``ValueError`` or
+    ``TypeError`` naming the field).
+    """
+    llr: float = 0.0
+    k: int = 0
     decision: int = SPRT_UNDECIDED
-    scan: int = 0                # scan of the decision (0 while undecided)
+    scan: int = 0
+
+    def __post_init__(self):
+        as_scalar(self.llr, "llr")
+        for name in ("k", "decision", "scan"):
+            v = getattr(self, name)
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
+                raise TypeError(f"{name} must be an integer, got {type(v).__name__}")
+        if self.k < 0:
+            raise ValueError(f"k must be >= 0, got {self.k}")
+        if self.decision not in (SPRT_H0, SPRT_H1, SPRT_UNDECIDED):
+            raise ValueError(f"decision must be 0 (H0), 1 (H1) or -1 (undecided), "
+                             f"got {self.decision}")
+        if self.decision == SPRT_UNDECIDED and self.scan != 0:
+            raise ValueError(f"scan must be 0 while undecided, got {self.scan}")
+        if self.decision != SPRT_UNDECIDED and not 1 <= self.scan <= self.k:
+            raise ValueError(f"scan must lie in [1, k={self.k}] once decided, got {self.scan}")
 
 
 def _check_thresholds(gamma0, gamma1):
@@ -100,7 +136,8 @@ def sprt_symmetric_error(gamma):
     g = as_scalar(gamma, "gamma")
     if not g > 0.0:
         raise ValueError(f"gamma must be > 0, got {g}")
-    return 1.0 / (1.0 + math.exp(g))
+    e = math.exp(-g)  # 1 / (1 + e^g) without overflow
+    return e / (1.0 + e)
 
 
 def sprt_step(state, increment, gamma0, gamma1):
@@ -114,6 +151,8 @@ def sprt_step(state, increment, gamma0, gamma1):
     inc = as_scalar(increment, "increment")
     g0, g1 = _check_thresholds(gamma0, gamma1)
     llr = state.llr + inc
+    if not math.isfinite(llr):
+        raise ValueError(f"increment {inc:g} makes Lambda overflow (state.llr = {state.llr:g})")
     k = state.k + 1
     decision, scan = state.decision, state.scan
     if decision == SPRT_UNDECIDED:
@@ -196,6 +235,20 @@ def wald_error_probabilities(gamma0, gamma1):
     return pf, pm
 
 
+def wald_expected_stopping_llr(gamma0, gamma1, p_decide_h0):
+    """Wald's ``E[Lambda_N] = L gamma0 + (1 - L) gamma1`` at the stopping scan ``N``.
+
+    ``L = p_decide_h0``.  Neglecting the overshoot, the test stops exactly on a
+    threshold, so the mean of ``Lambda`` at the stop is the average of the two
+    thresholds weighted by the probabilities of reaching them.  Under H0 with
+    Wald's ``P_F`` (:func:`wald_error_probabilities`) it is
+    ``(1 - P_F) gamma0 + P_F gamma1``.
+    """
+    g0, g1 = _check_thresholds(gamma0, gamma1)
+    L = as_probability(p_decide_h0, "p_decide_h0")
+    return L * g0 + (1.0 - L) * g1
+
+
 def wald_oc(h, gamma0, gamma1):
     """Wald's operating characteristic: probability of deciding H0.
 
@@ -223,8 +276,9 @@ def wald_oc(h, gamma0, gamma1):
 def wald_asn(mean_increment, gamma0, gamma1, p_decide_h0):
     """Wald's average sample number ``E[k] = (L gamma0 + (1 - L) gamma1) / E[lambda]``.
 
-    ``L = p_decide_h0``; under H0 with ``P_F`` this is the spec's
-    ``((1 - P_F) gamma0 + P_F gamma1) / E[lambda | H0]``.  ``mean_increment``
+    ``L = p_decide_h0``; under H0 with ``P_F`` this is
+    ``((1 - P_F) gamma0 + P_F gamma1) / E[lambda | H0]``, the ratio of
+    :func:`wald_expected_stopping_llr` to the mean increment (Wald's identity).  ``mean_increment``
     must be non-zero (use :func:`wald_gaussian_oc_asn` for the zero-drift limit).
     """
     mu = as_scalar(mean_increment, "mean_increment")
@@ -251,10 +305,63 @@ def wald_gaussian_oc_asn(mean, var, gamma0, gamma1):
         raise ValueError(f"var must be > 0, got {v}")
     g0, g1 = _check_thresholds(gamma0, gamma1)
     h = -2.0 * mu / v
+    if not math.isfinite(h):
+        raise ValueError(f"mean / var out of range: h = -2 mean / var overflows "
+                         f"(mean={mu:g}, var={v:g})")
     L = wald_oc(h, g0, g1)
     if abs(h) < 1e-10:
         return L, -g0 * g1 / v
     return L, (L * g0 + (1.0 - L) * g1) / mu
+
+
+def first_crossing_scan(path, level):
+    """Fractional scan at which a path ``path[k-1] = Lambda(k)``, ``k = 1..K``, first
+    reaches ``level``, by linear interpolation between scans (``Lambda(0) = 0``).
+
+    A negative ``level`` is reached from above (``Lambda <= level``), a positive
+    one from below.  Returns ``nan`` if the path never reaches it.  The paper
+    reads such a crossing off the run-averaged Lambda (eq 29) and quotes it with
+    one decimal (scan 5.4 in its Fig. 5).
+    """
+    p = as_array(path, "path", ndim=1)
+    lev = as_scalar(level, "level")
+    if lev == 0.0:
+        raise ValueError("level must be non-zero (the path starts at Lambda(0) = 0)")
+    sgn = 1.0 if lev > 0 else -1.0
+    prev = 0.0
+    for i, v in enumerate(p):
+        if sgn * v >= sgn * lev:
+            if v == prev:
+                return float(i + 1)
+            sc = max(abs(v), abs(prev), abs(lev))  # scaled: no overflow for any finite path
+            frac = (lev / sc - prev / sc) / (v / sc - prev / sc)
+            return float(i + min(max(frac, 0.0), 1.0))
+        prev = v
+    return float("nan")
+
+
+def gaussian_llr_walks(var, n_runs, n_scans, rng, h1_true=False):
+    """Cumulative log-likelihood ratios of a test that *is* a true likelihood ratio.
+
+    The increments are i.i.d. ``N(-var/2, var)`` under H0 (``N(+var/2, var)`` with
+    ``h1_true``): the exact LLR of one Gaussian datum whose mean shifts by
+    ``sqrt(var)`` standard deviations between the hypotheses.  For such a walk
+    ``E[exp(Lambda(k)) | H0] = 1`` at every scan and Wald's ``h = 1``; it is the
+    reference against which the book measures the calibration of an approximate
+    statistic.  Returns an ``(n_runs, n_scans)`` array.
+    """
+    v = as_positive(var, "var")
+    n = as_count(n_runs, "n_runs")
+    K = as_count(n_scans, "n_scans")
+    g = as_rng(rng)
+    if not isinstance(h1_true, (bool, np.bool_)):
+        raise TypeError(f"h1_true must be a bool, got {type(h1_true).__name__}")
+    mean = 0.5 * v if h1_true else -0.5 * v
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = np.cumsum(g.normal(mean, math.sqrt(v), size=(n, K)), axis=1)
+    if not np.all(np.isfinite(out)):
+        raise ValueError(f"var = {v:g} is too large: the cumulative sums overflow")
+    return out
 
 
 class SprtSummary(NamedTuple):
@@ -269,6 +376,7 @@ class SprtSummary(NamedTuple):
     mean_llr_crossing: int    # first scan at which the run-averaged Lambda crosses a threshold (0: none)
     counts_correct: np.ndarray  # (K,) number of correct decisions at scan k = 1..K
     counts_wrong: np.ndarray    # (K,) number of wrong decisions at scan k
+    mean_llr_crossing_scan: float  # the same crossing interpolated between scans (nan: none)
 
 
 def sprt_summary(llr, gamma0, gamma1, truth=SPRT_H0):
@@ -276,7 +384,8 @@ def sprt_summary(llr, gamma0, gamma1, truth=SPRT_H0):
 
     ``truth`` is the hypothesis that generated the data (0 or 1).  The
     mean-Lambda crossing is the first scan at which the average of ``llr`` over
-    the runs (paper eq 29) reaches ``gamma0`` or ``gamma1``.
+    the runs (paper eq 29) reaches ``gamma0`` or ``gamma1``; it is given both as
+    a whole scan and interpolated (:func:`first_crossing_scan`).
     """
     L = as_array(llr, "llr", ndim=2)
     if truth not in (SPRT_H0, SPRT_H1) or isinstance(truth, bool):
@@ -291,9 +400,15 @@ def sprt_summary(llr, gamma0, gamma1, truth=SPRT_H0):
     def _mean(mask):
         return float(k[mask].mean()) if np.any(mask) else float("nan")
 
-    md, mk = sprt_decide(L.mean(axis=0), gamma0, gamma1)
+    mean_path = L.mean(axis=0)
+    md, mk = sprt_decide(mean_path, gamma0, gamma1)
+    g0, g1 = _check_thresholds(gamma0, gamma1)
+    if md == SPRT_UNDECIDED:
+        crossing = float("nan")
+    else:
+        crossing = first_crossing_scan(mean_path, g1 if md == SPRT_H1 else g0)
     return SprtSummary(L.shape[0], float(good.mean()), float(bad.mean()),
                        float(np.mean(d == SPRT_UNDECIDED)), _mean(good), _mean(bad),
                        _mean(d != SPRT_UNDECIDED), int(mk),
                        np.bincount(k[good], minlength=K + 1)[1:],
-                       np.bincount(k[bad], minlength=K + 1)[1:])
+                       np.bincount(k[bad], minlength=K + 1)[1:], crossing)

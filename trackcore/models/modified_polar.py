@@ -33,15 +33,16 @@ __all__ = [
     "modified_polar_f",
     "modified_polar_F",
     "modified_polar_Q",
-    "modified_polar_f_kernel",
-    "modified_polar_F_kernel",
     "modified_polar_from_cartesian",
 ]
 
 
 @nb.njit(cache=True)
 def modified_polar_f_kernel(theta, beta, u1, u2, out):
-    """Write ``f([theta, beta], [u1, u2])`` into ``out`` (2,); returns False if S1 = S2 = 0."""
+    """Write ``f([theta, beta], [u1, u2])`` into ``out`` (2,); returns False if S1 = S2 = 0.
+
+    Kernel (not public): assumes ``out`` has 2 elements; see :func:`modified_polar_f`.
+    """
     c = math.cos(theta)
     s = math.sin(theta)
     a = -u2 * c + u1 * s
@@ -91,6 +92,13 @@ def _check(xb, ub):
     return xb, ub
 
 
+def _finite(out):
+    if not np.all(np.isfinite(out)):
+        raise ValueError("xb and ub out of range: the transition overflows (|beta * ub| "
+                         "too large for double precision)")
+    return out
+
+
 def _degenerate():
     return ValueError("the observer displacement ub lands exactly on the point "
                       "(S1 = S2 = 0): the modified-polar transition is undefined")
@@ -105,18 +113,20 @@ def modified_polar_f(xb, ub):
     """
     xb, ub = _check(xb, ub)
     out = np.empty(2)
-    if not modified_polar_f_kernel(xb[0], xb[1], ub[0], ub[1], out):
-        raise _degenerate()
-    return out
+    with np.errstate(over="ignore", invalid="ignore"):
+        if not modified_polar_f_kernel(xb[0], xb[1], ub[0], ub[1], out):
+            raise _degenerate()
+    return _finite(out)
 
 
 def modified_polar_F(xb, ub):
     """Analytic Jacobian ``d f / d xb`` (2, 2) of :func:`modified_polar_f`."""
     xb, ub = _check(xb, ub)
     out = np.empty((2, 2))
-    if not modified_polar_F_kernel(xb[0], xb[1], ub[0], ub[1], out):
-        raise _degenerate()
-    return out
+    with np.errstate(over="ignore", invalid="ignore"):
+        if not modified_polar_F_kernel(xb[0], xb[1], ub[0], ub[1], out):
+            raise _degenerate()
+    return _finite(out)
 
 
 def modified_polar_Q(xb, T, sigma_p):
@@ -129,9 +139,13 @@ def modified_polar_Q(xb, T, sigma_p):
     xb = as_vector(xb, "xb", 2)
     T = as_nonnegative(T, "T")
     sp = as_nonnegative(sigma_p, "sigma_p")
-    b2 = xb[1] * xb[1]
-    q = sp * sp * T
-    return np.array([[q * b2, 0.0], [0.0, q * b2 * b2]])
+    with np.errstate(over="ignore", invalid="ignore"):
+        b2 = xb[1] * xb[1]
+        q = sp * sp * T
+        out = np.array([[q * b2, 0.0], [0.0, q * b2 * b2]])
+    if not np.all(np.isfinite(out)):
+        raise ValueError("xb, T and sigma_p out of range: sigma_p^2 T beta^4 overflows")
+    return out
 
 
 def modified_polar_from_cartesian(p_rel):

@@ -1,8 +1,8 @@
 """Pursuer / target / acoustic-decoy (ACM) scenarios of Jeong & Hong (1996).
 
 The paper gives speeds, turns, the range at release and the scan interval but
-no geometry.  **The geometry is our choice** (spec sec. 6.2): at the release
-time the pursuer is at the origin and the target at ``(0, R0)``, so the line of
+no geometry.  **The geometry is our choice** (chapter "Telling a target from an
+acoustic decoy", *Choices we made*): at the release time the pursuer is at the origin and the target at ``(0, R0)``, so the line of
 sight (LOS) points due north; ``alpha`` is the target course and ``lead`` the
 pursuer course, both measured clockwise from the LOS (degrees).  Before the
 release both move in straight lines (positions at ``t = 0`` follow by
@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -51,49 +52,108 @@ __all__ = [
 ]
 
 
+_CAPS = {"T": 1e4, "R0": 1e8, "alpha_deg": 1e6, "lead_deg": 1e6, "gamma": 1e4,
+         "target_turn_deg": 1e6, "pursuer_turn_deg": 1e6, "turn_accel": 1e4,
+         "target_speed": 1e4, "pursuer_speed": 1e4, "decoy_speed": 1e4, "t_release": 1e6,
+         "t_end": 1e6, "sigma_r": 1e6, "sigma_theta": 10.0, "sigma_rdot": 1e4,
+         "target_accel_psd": 1e8}
+
+
 @dataclass(frozen=True)
 class SprtAcmScenario:
-    """Parameters of one scenario (angles in degrees, SI units otherwise)."""
+    """Parameters of one scenario (angles in degrees, SI units otherwise).
+
+    Every field is checked when the record is built: ``TypeError`` for a
+    non-number, ``ValueError`` naming the field for a non-finite or
+    out-of-range value (each field also has a generous upper bound, far beyond
+    any sonar scenario, so that the simulation stays finite), or scan times that
+    are not whole multiples of ``T``.
+
+    Attributes
+    ----------
+    name : str
+        Label, e.g. ``"S1"``.
+    T : float
+        Scan interval (s).
+    R0 : float
+        Pursuer-target range at release (m).
+    alpha_deg, lead_deg : float
+        Target and pursuer courses, clockwise from the LOS at release (our choice).
+    gamma : float
+        The paper's threshold ``gamma1 = -gamma0``.
+    target_turn_deg, pursuer_turn_deg : float
+        Right turns starting at the release (degrees; negative turns left).
+    turn_accel : float
+        Lateral acceleration in the turns (m/s^2).
+    target_speed, pursuer_speed : float
+        Speeds (m/s).
+    decoy_speed : float
+        Apparent LOS speed of the ACM (m/s, > 0 receding).
+    t_release, t_end : float
+        Release time and end of the run (s); both whole multiples of ``T``.
+    sigma_r, sigma_theta, sigma_rdot : float
+        Sensor noise std: range (m), bearing (rad), range rate (m/s).
+    target_accel_psd : float
+        ``> 0``: random CWNA acceleration of this PSD added to the target truth
+        after the release (used to check filter consistency).
+    """
     name: str
-    T: float                       # scan interval (s)
-    R0: float                      # pursuer-target range at release (m)
-    alpha_deg: float               # target course, clockwise from the LOS (our choice)
-    lead_deg: float                # pursuer course, clockwise from the LOS (our choice)
-    gamma: float                   # paper's threshold gamma1 = -gamma0
-    target_turn_deg: float = 0.0   # right turn starting at release
-    pursuer_turn_deg: float = 0.0  # right turn starting at release
-    turn_accel: float = 10.0       # lateral acceleration in the turns (m/s^2)
+    T: float
+    R0: float
+    alpha_deg: float
+    lead_deg: float
+    gamma: float
+    target_turn_deg: float = 0.0
+    pursuer_turn_deg: float = 0.0
+    turn_accel: float = 10.0
     target_speed: float = 15.4
     pursuer_speed: float = 23.1
-    decoy_speed: float = 12.8      # apparent LOS speed of the ACM (> 0 receding)
+    decoy_speed: float = 12.8
     t_release: float = 60.0
     t_end: float = 90.0
-    sigma_r: float = 5.0           # sensor noise std: range (m)
-    sigma_theta: float = 0.035     # bearing (rad)
-    sigma_rdot: float = 1.0        # range rate (m/s)
-    target_accel_psd: float = 0.0  # > 0: random CWNA acceleration added to the target truth
+    sigma_r: float = 5.0
+    sigma_theta: float = 0.035
+    sigma_rdot: float = 1.0
+    target_accel_psd: float = 0.0
 
     def __post_init__(self):
+        if not isinstance(self.name, str):
+            raise TypeError(f"name must be a string, got {type(self.name).__name__}")
+        for f in dataclasses.fields(self):
+            if f.name == "name":
+                continue
+            v = getattr(self, f.name)
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
+                raise TypeError(f"{f.name} must be a real number, got {type(v).__name__}")
+            if not math.isfinite(float(v)):
+                raise ValueError(f"{f.name} must be finite, got {v!r}")
         for f in ("T", "R0", "target_speed", "pursuer_speed", "t_release", "sigma_r",
-                  "sigma_theta", "sigma_rdot", "gamma"):
+                  "sigma_theta", "sigma_rdot", "gamma", "turn_accel", "t_end"):
             v = getattr(self, f)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{f} must be a finite number > 0, got {v!r}")
-        for f in ("alpha_deg", "lead_deg", "target_turn_deg", "pursuer_turn_deg", "decoy_speed"):
+            if not v > 0:
+                raise ValueError(f"{f} must be > 0, got {v!r}")
+        for f, cap in _CAPS.items():  # far beyond any sonar scenario; keeps the maths finite
             v = getattr(self, f)
-            if not (isinstance(v, (int, float)) and math.isfinite(v)):
-                raise ValueError(f"{f} must be a finite number, got {v!r}")
-        if not (math.isfinite(self.target_accel_psd) and self.target_accel_psd >= 0):
+            if abs(v) > cap:
+                raise ValueError(f"{f} is out of range (|{f}| at most {cap:g}), got {v!r}")
+        if not self.target_accel_psd >= 0:
             raise ValueError(f"target_accel_psd must be >= 0, got {self.target_accel_psd!r}")
-        if not self.turn_accel > 0:
-            raise ValueError(f"turn_accel must be > 0, got {self.turn_accel!r}")
+        if not self.t_release >= self.T:
+            raise ValueError(f"t_release must be at least T (one scan before the release), "
+                             f"got t_release={self.t_release}, T={self.T}")
+        if not self.R0 >= 1.0:
+            raise ValueError(f"R0 must be at least 1 m, got {self.R0!r}")
+        if not self.t_end >= self.t_release:
+            raise ValueError(f"t_end must be >= t_release, got t_end={self.t_end}, "
+                             f"t_release={self.t_release}")
         n_pre = self.t_release / self.T
         n_post = (self.t_end - self.t_release) / self.T
-        if abs(n_pre - round(n_pre)) > 1e-9 or abs(n_post - round(n_post)) > 1e-9 \
-                or n_post < 0:
-            raise ValueError("t_release and t_end - t_release must be non-negative multiples "
+        if abs(n_pre - round(n_pre)) > 1e-9 or abs(n_post - round(n_post)) > 1e-9:
+            raise ValueError("t_release and t_end - t_release must be whole multiples "
                              f"of T, got T={self.T}, t_release={self.t_release}, "
                              f"t_end={self.t_end}")
+        if n_pre + n_post > 1e6:
+            raise ValueError(f"T={self.T} gives {n_pre + n_post:.3g} scans; at most 1e6")
 
     @property
     def n_pre(self) -> int:
@@ -117,7 +177,7 @@ _PAPER = {
 
 
 def sprt_acm_scenario(number, **changes):
-    """Scenario 1, 2 or 3 of the paper with our geometry (spec sec. 6.2).
+    """Scenario 1, 2 or 3 of the paper with our geometry.
 
     S1: constant velocity, G-A geometry (alpha = 45 deg, lead = 0), T = 2 s,
     gamma = ln 19.  S2: target turns 45 deg right, pursuer 22.5 deg right at
@@ -175,6 +235,9 @@ def sprt_acm_states(scenario, t):
                    sc.pursuer_turn_deg, sc.pursuer_speed, sc.turn_accel, sc.t_release, t)
     tgt = _vehicle(np.array([0.0, sc.R0]), _course_vector(sc.target_speed, sc.alpha_deg),
                    sc.target_turn_deg, sc.target_speed, sc.turn_accel, sc.t_release, t)
+    if not (np.all(np.isfinite(own)) and np.all(np.isfinite(tgt))):
+        raise ValueError("the scenario's speeds, turns and times give non-finite trajectories "
+                         "(parameters far outside a physical range)")
     return own, tgt, np.array([0.0, sc.R0])
 
 
@@ -225,8 +288,14 @@ def sprt_acm_measurements(scenario, rng, truth=None, h1_true=False):
     random deviation that follows the filter's own CWNA model (eq 12) after the
     release (used to check filter consistency).
     """
+    if not isinstance(scenario, SprtAcmScenario):
+        raise TypeError(f"scenario must be an SprtAcmScenario, got {type(scenario).__name__}")
     rng = as_rng(rng)
+    if not isinstance(h1_true, (bool, np.bool_)):
+        raise TypeError(f"h1_true must be a bool, got {type(h1_true).__name__}")
     truth = sprt_acm_truth(scenario) if truth is None else truth
+    if not isinstance(truth, SprtAcmTruth):
+        raise TypeError(f"truth must be an SprtAcmTruth, got {type(truth).__name__}")
     sig = np.array([scenario.sigma_r, scenario.sigma_theta, scenario.sigma_rdot])
     target, acm = truth.target, truth.acm
     if scenario.target_accel_psd > 0:
@@ -240,6 +309,10 @@ def sprt_acm_measurements(scenario, rng, truth=None, h1_true=False):
             dev[i] = F @ dev[i - 1] + w[i - n0 - 1]
         target = target + dev
     rel = target - truth.own
+    hit = np.hypot(rel[:, 0], rel[:, 1]) == 0.0
+    if np.any(hit):
+        raise ValueError(f"the scenario puts the target on the pursuer at t = "
+                         f"{truth.times[np.argmax(hit)]:g} s (zero range)")
     z_t = range_bearing_doppler(rel)
     n_pre = truth.n_pre
     z_pre = z_t[:n_pre] + rng.standard_normal((n_pre, 3)) * sig
@@ -253,9 +326,15 @@ def sprt_acm_measurements(scenario, rng, truth=None, h1_true=False):
 
 def sprt_acm_filter_config(scenario, **changes):
     """Filter parameters matched to the scenario's sensor noise (paper values otherwise)."""
-    cfg = SprtAcmFilterConfig(sigma_r=scenario.sigma_r, sigma_theta=scenario.sigma_theta,
-                              sigma_rdot=scenario.sigma_rdot)
-    return cfg._replace(**changes)
+    if not isinstance(scenario, SprtAcmScenario):
+        raise TypeError(f"scenario must be an SprtAcmScenario, got {type(scenario).__name__}")
+    params = dict(sigma_r=scenario.sigma_r, sigma_theta=scenario.sigma_theta,
+                  sigma_rdot=scenario.sigma_rdot)
+    unknown = set(changes) - {f.name for f in dataclasses.fields(SprtAcmFilterConfig)}
+    if unknown:
+        raise TypeError(f"unknown SprtAcmFilterConfig field(s): {sorted(unknown)}")
+    params.update(changes)
+    return SprtAcmFilterConfig(**params)
 
 
 def sprt_acm_trial(rng, scenario, config=None, h1_true=False):
@@ -274,6 +353,10 @@ def sprt_acm_monte_carlo(scenario, n_runs, seed, config=None, h1_true=False):
     if not isinstance(scenario, SprtAcmScenario):
         raise TypeError(f"scenario must be an SprtAcmScenario, got {type(scenario).__name__}")
     n_runs = as_count(n_runs, "n_runs")
+    if config is not None and not isinstance(config, SprtAcmFilterConfig):
+        raise TypeError(f"config must be an SprtAcmFilterConfig, got {type(config).__name__}")
+    if not isinstance(h1_true, (bool, np.bool_)):
+        raise TypeError(f"h1_true must be a bool, got {type(h1_true).__name__}")
     truth = sprt_acm_truth(scenario)
     K, n_pre = scenario.n_post, scenario.n_pre
     zp = np.empty((n_runs, n_pre, 3))
@@ -284,5 +367,6 @@ def sprt_acm_monte_carlo(scenario, n_runs, seed, config=None, h1_true=False):
     cfg = sprt_acm_filter_config(scenario) if config is None else config
     if n_runs == 0:
         return SprtAcmDiscrimination(np.zeros((0, K, 4)), np.zeros((0, K)), np.zeros((0, K, 4)),
-                                     np.zeros((0, K, 2)), np.zeros(0, dtype=bool))
+                                     np.zeros((0, K, 2)), np.zeros((0, K, 2)),
+                                     np.zeros(0, dtype=bool))
     return sprt_acm_discriminate(zp, za, zb, truth.own, scenario.T, cfg)

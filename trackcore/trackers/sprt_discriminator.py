@@ -26,21 +26,35 @@ single pre-release target track to that scan and contribute from ``k = 1``;
 the ACM filters are initialised at ``k = 1`` from range and bearing (eq 28)
 and contribute from ``k = 2``.
 
-The EKFs are built from the foundation's Kalman kernels
-(:func:`trackcore.filters.kf_predict_kernel`, :func:`trackcore.filters.kf_update_kernel`)
-and measurement/transition models; a whole Monte Carlo batch runs in one
-numba kernel.
+The target filters are the paper's constant-velocity EKF (``target_model="cv"``)
+or one of two manoeuvre-tolerant alternatives that the paper does not use:
+
+* ``"imm"``: a two-mode IMM after the release, the paper's CV mode and a CV mode
+  whose white acceleration covers a turn at ``manoeuvre_accel``; its
+  log-likelihood increment is the log of its predictive mixture density
+  ``sum_j c_j N(nu_j; 0, S_j)``, so Lambda stays a ratio of predictive densities;
+* ``"boost"``: the CV EKF whose process noise is raised to that of the
+  manoeuvre mode for the predictions that start within ``boost_time`` seconds
+  after the release (the moment a target that drops a decoy is likely to turn).
+
+The EKFs are built from the foundation's Kalman and IMM kernels
+(``trackcore.filters.kalman``, ``trackcore.filters.imm``) and the measurement
+and transition models; a whole Monte Carlo batch runs in one numba kernel.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
+import numbers
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numba as nb
 import numpy as np
 
 from ..core.logmath import LOG_2PI
-from ..core.validation import as_array, as_nonnegative, as_positive
+from ..core.validation import as_array, as_positive
+from ..filters.imm import imm_mix_kernel, imm_mode_update_kernel
 from ..filters.kalman import kf_predict_kernel, kf_update_kernel
 from ..models.measurement import (range_bearing_doppler_jacobian_kernel,
                                   range_bearing_doppler_kernel, wrap_angle_kernel)
@@ -49,35 +63,141 @@ from ..models.motion import cv_process_noise, cv_transition
 
 __all__ = [
     "SPRT_ACM_FILTERS",
+    "SPRT_ACM_TARGET_MODELS",
     "SprtAcmFilterConfig",
     "SprtAcmDiscrimination",
     "sprt_acm_discriminate",
-    "sprt_acm_discriminate_kernel",
     "sprt_acm_llr",
 ]
 
 SPRT_ACM_FILTERS = ("a0", "b0", "a1", "b1")
+_Z_CAP = 1e9  # largest |measurement| or |own-ship state| accepted (m, rad, m/s)
+SPRT_ACM_TARGET_MODELS = ("cv", "imm", "boost")
 
 
-class SprtAcmFilterConfig(NamedTuple):
-    """Parameters of the four matched filters (paper sec. IV.1 unless noted)."""
-    sigma_r: float = 5.0          # range noise std (m)
-    sigma_theta: float = 0.035    # bearing noise std (rad)
-    sigma_rdot: float = 1.0       # range-rate noise std (m/s)
-    sigma_v: float = 2.0          # target filter: white-acceleration PSD = sigma_v^2 (eq 12)
-    sigma_p: float = 1.0          # ACM filter: drift-velocity PSD = sigma_p^2 (eqs 13-14)
-    beta_std_factor: float = 2.0  # ACM prior std of 1/r = factor / z_r(1) (eq 28 prints 2)
-    init_pos_std: float = 100.0   # target filter initial position std (m) (our choice)
-    init_vel_std: float = 30.0    # target filter initial relative-velocity std (m/s) (our choice)
+@dataclass(frozen=True)
+class SprtAcmFilterConfig:
+    """Parameters of the four matched filters (paper sec. IV.1 unless noted).
+
+    Every field is checked when the record is built (``ValueError`` or
+    ``TypeError`` naming the field); :meth:`replace` returns a checked copy.
+
+    Attributes
+    ----------
+    sigma_r, sigma_theta, sigma_rdot : float
+        Measurement noise std: range (m), bearing (rad), range rate (m/s).
+    sigma_v : float
+        Target filter: white-acceleration PSD ``sigma_v**2`` (m^2/s^3, eq 12).
+    sigma_p : float
+        ACM filter: drift-velocity PSD ``sigma_p**2`` (m^2/s, eqs 13-14).
+    beta_std_factor : float
+        ACM prior std of ``1/r`` is ``beta_std_factor / z_r(1)`` (eq 28 prints 2).
+    init_pos_std, init_vel_std : float
+        Target filter prior at the first pre-release scan (m, m/s; our choice).
+    target_model : {"cv", "imm", "boost"}
+        ``"cv"``: the paper's constant-velocity target EKF.  ``"imm"``: a two-mode
+        IMM after the release (not in the paper): mode 1 is the CV model above,
+        mode 2 a CV model with PSD ``manoeuvre_accel**2 * T``.  ``"boost"``: the
+        CV EKF with that PSD for the predictions starting within ``boost_time``
+        of the release (not in the paper).
+    manoeuvre_accel : float
+        IMM and boost: acceleration (m/s^2) that the manoeuvre model's white
+        acceleration covers within one scan (PSD ``manoeuvre_accel**2 * T``, i.e.
+        a velocity-change std of ``manoeuvre_accel * T`` per scan).
+    boost_time : float
+        Boost only: the predictions that start less than ``boost_time`` seconds
+        after the release use the manoeuvre PSD (s, >= 0).
+    p_stay_cv, p_stay_manoeuvre : float
+        IMM only: probabilities of staying in each mode from one scan to the
+        next; the IMM starts at the release with the chain's stationary mode
+        probabilities.
+    """
+    sigma_r: float = 5.0
+    sigma_theta: float = 0.035
+    sigma_rdot: float = 1.0
+    sigma_v: float = 2.0
+    sigma_p: float = 1.0
+    beta_std_factor: float = 2.0
+    init_pos_std: float = 100.0
+    init_vel_std: float = 30.0
+    target_model: str = "cv"
+    manoeuvre_accel: float = 10.0
+    p_stay_cv: float = 0.95
+    p_stay_manoeuvre: float = 0.5
+    boost_time: float = 2.0
+
+    def __post_init__(self):
+        for name in ("sigma_r", "sigma_theta", "sigma_rdot", "beta_std_factor",
+                     "init_pos_std", "init_vel_std", "manoeuvre_accel"):
+            _check_real(self, name, positive=True)
+        for name in ("sigma_v", "sigma_p", "boost_time"):
+            _check_real(self, name, positive=False)
+        for name in ("p_stay_cv", "p_stay_manoeuvre"):
+            v = _check_real(self, name, positive=True)
+            if not v < 1.0:
+                raise ValueError(f"{name} must lie in (0, 1), got {v}")
+        if not isinstance(self.target_model, str):
+            raise TypeError(f"target_model must be a string, got {type(self.target_model).__name__}")
+        if self.target_model not in SPRT_ACM_TARGET_MODELS:
+            raise ValueError(f"target_model must be one of {SPRT_ACM_TARGET_MODELS}, "
+                             f"got {self.target_model!r}")
+
+    def replace(self, **changes) -> "SprtAcmFilterConfig":
+        """A copy with ``changes`` applied (checked like a new record)."""
+        unknown = set(changes) - {f.name for f in dataclasses.fields(self)}
+        if unknown:
+            raise TypeError(f"unknown SprtAcmFilterConfig field(s): {sorted(unknown)}")
+        return dataclasses.replace(self, **changes)
+
+    @property
+    def manoeuvre_probability_at_release(self) -> float:
+        """Stationary probability of the IMM's manoeuvre mode (its value at the release)."""
+        a, b = 1.0 - self.p_stay_cv, 1.0 - self.p_stay_manoeuvre
+        return a / (a + b)
+
+
+def _check_real(record, name, positive):
+    v = getattr(record, name)
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
+        raise TypeError(f"{name} must be a real number, got {type(v).__name__}")
+    v = float(v)
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {v}")
+    if v > 1e60:  # its square or fourth power enters covariances
+        raise ValueError(f"{name} is out of range (at most 1e60), got {v}")
+    if positive and not v > 0.0:
+        raise ValueError(f"{name} must be > 0, got {v}")
+    if not positive and not v >= 0.0:
+        raise ValueError(f"{name} must be >= 0, got {v}")
+    return v
 
 
 class SprtAcmDiscrimination(NamedTuple):
-    """Matched-filter outputs over ``K`` post-release scans (batch axis first if batched)."""
-    lam: np.ndarray    # (..., K, 4) Lambda_a0, Lambda_b0, Lambda_a1, Lambda_b1 (eqs 22-25)
-    llr: np.ndarray    # (..., K) Lambda (eq 21)
-    nis: np.ndarray    # (..., K, 4) NIS per filter (NaN where the filter has no innovation)
-    beta: np.ndarray   # (..., K, 2) inverse-range estimates of the ACM filters b0, a1 (1/m)
-    ok: np.ndarray     # (...,) False if an innovation covariance lost positive definiteness
+    """Matched-filter outputs over ``K`` post-release scans (batch axis first if batched).
+
+    Attributes
+    ----------
+    lam : (..., K, 4)
+        ``Lambda_a0, Lambda_b0, Lambda_a1, Lambda_b1`` (eqs 22-25).
+    llr : (..., K)
+        ``Lambda`` (eq 21).
+    nis : (..., K, 4)
+        NIS per filter (NaN where the filter has no innovation); for the IMM the
+        predicted-mode-probability-weighted NIS of its modes.
+    beta : (..., K, 2)
+        Inverse-range estimates of the ACM filters ``b0``, ``a1`` (1/m).
+    mu : (..., K, 2)
+        Manoeuvre-mode probability of the target filters ``a0``, ``b1`` (IMM
+        only; NaN for the CV filter).
+    ok : (...,)
+        False if an innovation covariance lost positive definiteness.
+    """
+    lam: np.ndarray
+    llr: np.ndarray
+    nis: np.ndarray
+    beta: np.ndarray
+    mu: np.ndarray
+    ok: np.ndarray
 
 
 @nb.njit(cache=True)
@@ -146,18 +266,25 @@ def _target_predict(x, P, Phi, Qa, own_prev, own_cur, T, x_out, P_out):
 
 
 @nb.njit(cache=True)
-def _run_one(z_pre, z_a, z_b, own, T, Phi, Qa, Ra, Rb, P0, qT, beta_factor, sigma_theta,
-             lam, nis, beta):
-    """One Monte Carlo run; fills lam (K,4), nis (K,4), beta (K,2); returns ok."""
+def _run_one(z_pre, z_a, z_b, own, T, Phi, Qa, Qs, PI, mu0, Qb, n_boost, Ra, Rb, P0, qT,
+             beta_factor, sigma_theta, lam, nis, beta, mu_out):
+    """One Monte Carlo run; fills lam (K,4), nis (K,4), beta (K,2), mu_out (K,2); returns ok.
+
+    ``Qs`` (r, 4, 4), ``PI`` (r, r) and ``mu0`` (r,) describe the target filters
+    after the release: ``r = 1`` is the CV EKF, whose first ``n_boost``
+    post-release predictions use ``Qb`` instead of ``Qs[0]``; ``r = 2`` the IMM.
+    """
     n_pre = z_pre.shape[0]
     K = z_a.shape[0]
+    r = Qs.shape[0]
     half_log2pi = 0.5 * LOG_2PI
     for k in range(K):
         for j in range(4):
             lam[k, j] = np.nan
             nis[k, j] = np.nan
-        beta[k, 0] = np.nan
-        beta[k, 1] = np.nan
+        for j in range(2):
+            beta[k, j] = np.nan
+            mu_out[k, j] = np.nan
     # ---- pre-release target track: first measurement -> position, zero velocity
     x = np.zeros(4)
     P = P0.copy()
@@ -171,13 +298,22 @@ def _run_one(z_pre, z_a, z_b, own, T, Phi, Qa, Ra, Rb, P0, qT, beta_factor, sigm
         if not ok:
             return False
     # ---- release: both target filters start from the prediction to scan k = 1
-    xt = np.empty((2, 4))      # a0, b1
-    Pt = np.empty((2, 4, 4))
+    xt = np.empty((2, r, 4))   # a0, b1; one state per mode
+    Pt = np.empty((2, r, 4, 4))
+    mu = np.empty((2, r))
+    x0s = np.empty((r, 4))
+    P0s = np.empty((r, 4, 4))
+    c_bar = np.empty(r)
+    logliks = np.empty(r)
+    nises = np.empty(r)
+    mu_new = np.empty(r)
     xm = np.empty((2, 2))      # b0, a1
     Pm = np.empty((2, 2, 2))
     xmp = np.empty(2)
     Pmp = np.empty((2, 2))
-    _target_predict(x, P, Phi, Qa, own[n_pre - 1], own[n_pre], T, xp, Pp)
+    x1 = np.empty(4)           # the common prediction to k = 1
+    P1 = np.empty((4, 4))
+    _target_predict(x, P, Phi, Qa, own[n_pre - 1], own[n_pre], T, x1, P1)
     acc = np.zeros(4)          # Lambda_a0, Lambda_b0, Lambda_a1, Lambda_b1
     for k in range(K):
         j = n_pre + k
@@ -185,13 +321,41 @@ def _run_one(z_pre, z_a, z_b, own, T, Phi, Qa, Ra, Rb, P0, qT, beta_factor, sigm
         for s in range(2):
             z = z_a[k] if s == 0 else z_b[k]
             col = 0 if s == 0 else 3
-            if k > 0:
-                _target_predict(xt[s], Pt[s], Phi, Qa, own[j - 1], own[j], T, xp, Pp)
-            ll, v, ok = _target_update(xp, Pp, z, Ra, xt[s], Pt[s])
-            if not ok:
-                return False
-            acc[col] += ll + 3.0 * half_log2pi
+            if k == 0:
+                # every mode starts from the one pre-release prediction
+                for m in range(r):
+                    ll, v, ok = _target_update(x1, P1, z, Ra, xt[s, m], Pt[s, m])
+                    if not ok:
+                        return False
+                    mu[s, m] = mu0[m]
+                total = ll
+            elif r == 1:
+                Q = Qb if k <= n_boost else Qs[0]
+                _target_predict(xt[s, 0], Pt[s, 0], Phi, Q, own[j - 1], own[j], T, xp, Pp)
+                ll, v, ok = _target_update(xp, Pp, z, Ra, xt[s, 0], Pt[s, 0])
+                if not ok:
+                    return False
+                total = ll
+            else:
+                imm_mix_kernel(mu[s], PI, xt[s], Pt[s], x0s, P0s, c_bar)
+                for m in range(r):
+                    _target_predict(x0s[m], P0s[m], Phi, Qs[m], own[j - 1], own[j], T,
+                                    xp, Pp)
+                    ll, nises[m], ok = _target_update(xp, Pp, z, Ra, xt[s, m], Pt[s, m])
+                    if not ok:
+                        return False
+                    logliks[m] = ll
+                total = imm_mode_update_kernel(c_bar, logliks, mu_new)
+                if total == -np.inf:
+                    return False
+                v = 0.0
+                for m in range(r):
+                    mu[s, m] = mu_new[m]
+                    v += c_bar[m] * nises[m]
+            acc[col] += total + 3.0 * half_log2pi
             nis[k, col] = v
+            if r > 1:
+                mu_out[k, s] = mu[s, r - 1]
         # ACM filters: b0 on track b (slot 0), a1 on track a (slot 1)
         for s in range(2):
             z = z_b[k] if s == 0 else z_a[k]
@@ -221,18 +385,23 @@ def _run_one(z_pre, z_a, z_b, own, T, Phi, Qa, Ra, Rb, P0, qT, beta_factor, sigm
 
 
 @nb.njit(cache=True)
-def sprt_acm_discriminate_kernel(z_pre, z_a, z_b, own, T, Phi, Qa, Ra, Rb, P0, qT, beta_factor,
-                                 sigma_theta, lam, nis, beta, ok):
+def sprt_acm_discriminate_kernel(z_pre, z_a, z_b, own, T, Phi, Qa, Qs, PI, mu0, Qb, n_boost,
+                                 Ra, Rb, P0, qT, beta_factor, sigma_theta, lam, nis, beta,
+                                 mu, ok):
     """Batch kernel: ``z_pre`` (N, n_pre, 3), ``z_a``/``z_b`` (N, K, 3), ``own`` (n_pre+K, 4).
 
-    Outputs ``lam``/``nis`` (N, K, 4), ``beta`` (N, K, 2), ``ok`` (N,) bool.
-    Filter parameters: CV ``Phi``/``Qa`` (4, 4), ``Ra`` (3, 3), ``Rb`` (1, 1),
-    target prior ``P0`` (4, 4), ``qT = sigma_p^2 T``, ACM prior factor
-    ``beta_factor`` and ``sigma_theta``.
+    Outputs ``lam``/``nis`` (N, K, 4), ``beta``/``mu`` (N, K, 2), ``ok`` (N,) bool.
+    Filter parameters: CV ``Phi``/``Qa`` (4, 4) before the release, the target
+    filters' modes after it ``Qs`` (r, 4, 4) with ``PI`` (r, r) and ``mu0`` (r,),
+    the boosted ``Qb`` (4, 4) of the first ``n_boost`` post-release predictions,
+    ``Ra`` (3, 3), ``Rb`` (1, 1), target prior ``P0`` (4, 4), ``qT = sigma_p^2 T``,
+    ACM prior factor ``beta_factor`` and ``sigma_theta``.  Assumes valid input
+    (checked by :func:`sprt_acm_discriminate`).
     """
     for n in range(z_a.shape[0]):
-        ok[n] = _run_one(z_pre[n], z_a[n], z_b[n], own, T, Phi, Qa, Ra, Rb, P0, qT, beta_factor,
-                         sigma_theta, lam[n], nis[n], beta[n])
+        ok[n] = _run_one(z_pre[n], z_a[n], z_b[n], own, T, Phi, Qa, Qs, PI, mu0, Qb, n_boost,
+                         Ra, Rb, P0, qT, beta_factor, sigma_theta, lam[n], nis[n], beta[n],
+                         mu[n])
 
 
 def sprt_acm_llr(lam):
@@ -240,7 +409,11 @@ def sprt_acm_llr(lam):
     L = as_array(lam, "lam", finite=False)
     if L.ndim < 1 or L.shape[-1] != 4:
         raise ValueError(f"lam must have last dimension 4 (a0, b0, a1, b1), got shape {L.shape}")
-    return -L[..., 0] - L[..., 1] + L[..., 2] + L[..., 3]
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = -L[..., 0] - L[..., 1] + L[..., 2] + L[..., 3]
+    if np.any(np.isfinite(L).all(axis=-1) & ~np.isfinite(out)):
+        raise ValueError("lam out of range: the sum of eq (21) overflows")
+    return out
 
 
 def _config(config):
@@ -248,12 +421,22 @@ def _config(config):
         return SprtAcmFilterConfig()
     if not isinstance(config, SprtAcmFilterConfig):
         raise TypeError(f"config must be an SprtAcmFilterConfig, got {type(config).__name__}")
-    for name in ("sigma_r", "sigma_theta", "sigma_rdot", "beta_std_factor", "init_pos_std",
-                 "init_vel_std"):
-        as_positive(getattr(config, name), f"config.{name}")
-    for name in ("sigma_v", "sigma_p"):
-        as_nonnegative(getattr(config, name), f"config.{name}")
     return config
+
+
+def _target_modes(cfg, T):
+    """``(Qs, PI, mu0, Qb, n_boost)`` of the target filters after the release."""
+    Qa = cv_process_noise(T, cfg.sigma_v ** 2, 2, kind="cwna")
+    Qm = cv_process_noise(T, cfg.manoeuvre_accel ** 2 * T, 2, kind="cwna")
+    if cfg.target_model == "cv":
+        return Qa[None], np.ones((1, 1)), np.ones(1), Qa, 0
+    if cfg.target_model == "boost":
+        n_boost = int(math.ceil(cfg.boost_time / T - 1e-9))
+        return Qa[None], np.ones((1, 1)), np.ones(1), Qm, n_boost
+    p1, p2 = cfg.p_stay_cv, cfg.p_stay_manoeuvre
+    PI = np.array([[p1, 1.0 - p1], [1.0 - p2, p2]])
+    m = cfg.manoeuvre_probability_at_release
+    return np.stack([Qa, Qm]), PI, np.array([1.0 - m, m]), Qa, 0
 
 
 def sprt_acm_discriminate(z_pre, z_a, z_b, own_states, T, config=None):
@@ -299,20 +482,36 @@ def sprt_acm_discriminate(z_pre, z_a, z_b, own_states, T, config=None):
         raise ValueError(f"z_b must have the shape of z_a {za.shape[1:]}, got {zb.shape[1:]}")
     if np.any(zp[:, :, 0] <= 0) or np.any(za[:, :, 0] <= 0) or np.any(zb[:, :, 0] <= 0):
         raise ValueError("measured ranges (column 0 of z_pre, z_a, z_b) must be > 0")
+    for name, z in (("z_pre", zp), ("z_a", za), ("z_b", zb)):
+        if np.any(np.abs(z) > _Z_CAP):  # far beyond any sonar; keeps the filters finite
+            raise ValueError(f"{name} is out of range: |r|, |theta| and |rdot| at most "
+                             f"{_Z_CAP:g}")
     own = as_array(own_states, "own_states", shape=(n_pre + K, 4))
+    if np.any(np.abs(own) > _Z_CAP):
+        raise ValueError(f"own_states is out of range: at most {_Z_CAP:g} in magnitude")
     Phi = cv_transition(T, 2)
-    Qa = cv_process_noise(T, cfg.sigma_v ** 2, 2, kind="cwna")
+    with np.errstate(over="ignore", invalid="ignore"):
+        Qa = cv_process_noise(T, cfg.sigma_v ** 2, 2, kind="cwna")
+        Qs, PI, mu0, Qb, n_boost = _target_modes(cfg, T)
     Ra = np.diag([cfg.sigma_r ** 2, cfg.sigma_theta ** 2, cfg.sigma_rdot ** 2])
     Rb = np.array([[cfg.sigma_theta ** 2]])
     P0 = np.diag([cfg.init_pos_std ** 2] * 2 + [cfg.init_vel_std ** 2] * 2)
+    if not all(np.all(np.isfinite(a)) for a in (Qa, Qs, Ra, Rb, P0, Qb)):
+        raise ValueError("config and T out of range: a filter covariance overflows")
     lam = np.empty((N, K, 4))
     nis = np.empty((N, K, 4))
     beta = np.empty((N, K, 2))
+    mu = np.empty((N, K, 2))
     ok = np.empty(N, dtype=np.bool_)
-    sprt_acm_discriminate_kernel(zp, za, zb, own, T, Phi, Qa, Ra, Rb, P0,
+    sprt_acm_discriminate_kernel(zp, za, zb, own, T, Phi, Qa, Qs, PI, mu0, Qb, n_boost, Ra, Rb,
+                                 P0,
                                  cfg.sigma_p ** 2 * T, float(cfg.beta_std_factor),
-                                 float(cfg.sigma_theta), lam, nis, beta, ok)
+                                 float(cfg.sigma_theta), lam, nis, beta, mu, ok)
+    bad = ok & ~np.all(np.isfinite(lam), axis=(1, 2))
+    if np.any(bad):
+        raise ValueError(f"run {int(np.argmax(bad))}: the filters overflowed; the "
+                         "measurements, own_states or config are far outside a physical range")
     llr = sprt_acm_llr(lam)
     if single:
-        return SprtAcmDiscrimination(lam[0], llr[0], nis[0], beta[0], bool(ok[0]))
-    return SprtAcmDiscrimination(lam, llr, nis, beta, ok)
+        return SprtAcmDiscrimination(lam[0], llr[0], nis[0], beta[0], mu[0], bool(ok[0]))
+    return SprtAcmDiscrimination(lam, llr, nis, beta, mu, ok)
