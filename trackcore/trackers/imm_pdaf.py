@@ -312,7 +312,7 @@ def singer_imm_model_set(T=1.0, tau=(20.0, 5.0), sigma_m=(15.0, 60.0), sigma_cv=
     for i in range(tau.size):
         F[i + 1] = kron_axes(singer_transition(T, tau[i]), 2)
         Q[i + 1] = kron_axes(singer_process_noise(T, tau[i], sigma_m[i]), 2)
-        labels.append(f"Singer tau={tau[i]:g} s")
+        labels.append(f"Singer τ = {tau[i]:g} s")
     embed = np.zeros((6, 4))
     embed[:4, :4] = np.eye(4)
     init_var = np.r_[np.zeros(4), init_sigma_a**2, init_sigma_a**2]
@@ -626,7 +626,7 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
                 s += M[a, b] * xc[b]
             xs[k, a] = s
         for a in range(4):
-            for b in range(4):
+            for b in range(a, 4):  # exactly symmetric output
                 s = 0.0
                 for e in range(n):
                     if M[a, e] == 0.0:
@@ -634,6 +634,7 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
                     for f in range(n):
                         s += M[a, e] * Pcm[e, f] * M[b, f]
                 Ps[k, a, b] = s
+                Ps[k, b, a] = s
         for j in range(r):
             mus[k, j] = mu[j]
         # 8. TOM: remember the combined position, reset v_s
