@@ -151,9 +151,16 @@ def test_measurements_bad_input():
 
 
 # ---------------------------------------------------------------- the experiment and Table 1
-from trackcore.scenarios import (HOULES_TIMES, gate_miss_failures, houles_imm_trial,  # noqa: E402
-                                 houles_table, houles_windows, position_failures)
-from trackcore.trackers import car_imm_model_set, tom_imm_model_set  # noqa: E402
+from trackcore.scenarios import (HOULES_TIMES, failure_anatomy, gate_miss_failures,  # noqa: E402
+                                 houles_imm_trial, houles_table, houles_windows,
+                                 position_failures, rmse_estimate, rmse_ratio, window_mse)
+from trackcore.stats import Estimate, ratio_ci  # noqa: E402
+from trackcore.trackers import (car_imm_model_set, cv_model_set,  # noqa: E402
+                                tom_imm_model_set)
+
+
+def _values(est_rows):
+    return np.array([[e.value for e in row] for row in est_rows])
 
 
 def test_windows_and_aggregation_identity():
@@ -162,13 +169,19 @@ def test_windows_and_aggregation_identity():
     assert man[HOULES_TIMES == 21][0] and man[HOULES_TIMES == 40][0]
     assert not man[HOULES_TIMES == 20][0] and not man[HOULES_TIMES == 41][0]
     e = np.random.default_rng(0).exponential(300.0, size=(50, 2, 90))
-    tab = houles_table(e, np.zeros((50, 2), bool), np.random.default_rng(1), n_boot=200)
-    np.testing.assert_allclose(tab.rmse[:, 0] ** 2,
-                               4 / 9 * tab.rmse[:, 1] ** 2 + 5 / 9 * tab.rmse[:, 2] ** 2, rtol=1e-12)
-    np.testing.assert_allclose(tab.rmse[:, 0], np.sqrt(e.mean(axis=(0, 2))), rtol=1e-12)
-    np.testing.assert_allclose(tab.ratio[0], 1.0)
-    assert np.all(tab.rmse_ci[..., 0] <= tab.rmse) and np.all(tab.rmse <= tab.rmse_ci[..., 1])
-    np.testing.assert_allclose(tab.rmse_all, tab.rmse)
+    tab = houles_table(e, np.zeros((50, 2), bool))
+    rm = _values(tab.rmse)
+    np.testing.assert_allclose(rm[:, 0] ** 2, 4 / 9 * rm[:, 1] ** 2 + 5 / 9 * rm[:, 2] ** 2,
+                               rtol=1e-12)
+    np.testing.assert_allclose(rm[:, 0], np.sqrt(e.mean(axis=(0, 2))), rtol=1e-12)
+    np.testing.assert_allclose(_values(tab.ratio)[0], 1.0)
+    assert all(isinstance(x, Estimate) and x.lo <= x.value <= x.hi
+               for row in tab.rmse + tab.ratio + tab.ratio_common for x in row)
+    np.testing.assert_allclose(tab.rmse_all, rm)
+    np.testing.assert_allclose(window_mse(e).mean(axis=0), rm**2, rtol=1e-12)
+    # with no failure the two survivor definitions agree
+    np.testing.assert_allclose(_values(tab.ratio), _values(tab.ratio_common), rtol=1e-12)
+    assert tab.n_common == 50 and list(tab.n_ok) == [50, 50]
 
 
 def test_table_excludes_failed_runs():
@@ -176,10 +189,56 @@ def test_table_excludes_failed_runs():
     e[0, 0, 10] = 1e6
     failed = position_failures(e, 200.0)
     np.testing.assert_array_equal(failed, [[True], [False], [False], [False]])
-    tab = houles_table(e, failed, np.random.default_rng(0), n_boot=50)
-    np.testing.assert_allclose(tab.rmse, 10.0)
-    assert tab.fail_rate[0] == pytest.approx(0.25)
+    tab = houles_table(e, failed)
+    np.testing.assert_allclose(_values(tab.rmse), 10.0)
+    assert tab.fail_rate[0].value == pytest.approx(0.25)
+    assert tab.fail_rate[0].method == "Wilson"
     assert tab.rmse_all[0, 0] > 10.0
+
+
+def test_ratio_survivor_definitions():
+    rng = np.random.default_rng(5)
+    e = rng.exponential(400.0, size=(200, 3, 90))
+    e[:, 1] *= 0.64                       # filter 1 has 80 % of filter 0's RMSE
+    e[:20, 2, 30] = 1e6                   # filter 2 fails on 20 runs
+    e[10:40, 0, 50] = 1e6                 # filter 0 fails on 30 runs (10 shared)
+    failed = position_failures(e)
+    own = rmse_ratio(e, failed, 1, 0)
+    ok0, ok1 = ~failed[:, 0], ~failed[:, 1]
+    m = window_mse(e)[:, :, 0]
+    assert own.value == pytest.approx(np.sqrt(m[ok1, 1].mean() / m[ok0, 0].mean()), rel=1e-12)
+    assert own.lo < own.value < own.hi
+    com = rmse_ratio(e, failed, 1, 0, survivors="common")
+    keep = ~failed.any(axis=1)
+    assert keep.sum() == 200 - 40
+    ref = ratio_ci(m[keep, 1], m[keep, 0])
+    assert com.value == pytest.approx(np.sqrt(ref.value), rel=1e-12)
+    assert (com.lo, com.hi) == pytest.approx((np.sqrt(ref.lo), np.sqrt(ref.hi)), rel=1e-12)
+    assert com.contains(0.8)
+    man = rmse_ratio(e, failed, 1, 0, window="manoeuvring")
+    assert man.value == pytest.approx(0.8, rel=0.05)
+    r0 = rmse_estimate(e, failed, 0, window="non-manoeuvring")
+    _, non = houles_windows()
+    assert r0.value == pytest.approx(np.sqrt(e[ok0, 0][:, non].mean()), rel=1e-12)
+    with pytest.raises(ValueError, match="survivors"):
+        rmse_ratio(e, failed, 1, 0, survivors="all")
+    with pytest.raises(ValueError, match="window"):
+        rmse_ratio(e, failed, 1, 0, window="turns")
+    with pytest.raises(ValueError, match="num"):
+        rmse_ratio(e, failed, 3, 0)
+
+
+def test_failure_anatomy():
+    e = np.full((3, 90), 100.0)
+    e[0, 20:] = 1e6          # lost at t = 21 s and never recovered
+    e[1, 40:45] = 1e6        # lost at t = 41 s for 5 scans, recovered
+    a = failure_anatomy(e)
+    np.testing.assert_array_equal(a.failed, [True, True, False])
+    np.testing.assert_array_equal(a.onset[:2], [21.0, 41.0])
+    assert np.isnan(a.onset[2])
+    np.testing.assert_array_equal(a.permanent, [True, False, False])
+    np.testing.assert_array_equal(a.time_lost, [70, 5, 0])
+    np.testing.assert_array_equal(a.failed, position_failures(e))
 
 
 def test_gate_miss_failures():
@@ -198,29 +257,57 @@ def test_trial_shapes_and_common_random_numbers():
     sets = [car_imm_model_set(), tom_imm_model_set()]
     r = houles_imm_trial(np.random.default_rng(3), sets)
     assert r.pos_err2.shape == (2, 90) and r.nees.shape == (2, 89) and r.mu.shape == (2, 89, 3)
+    assert r.nees_pos.shape == r.nees_vel.shape == (2, 89) and r.pred_err.shape == (2, 89, 2)
     assert r.pos_err2[0, 0] == r.pos_err2[1, 0]  # same initialisation
     assert set(np.unique(r.target_gated)) <= {0, 1}
     # the same run with one filter gives the same numbers for that filter
     r1 = houles_imm_trial(np.random.default_rng(3), sets[:1])
     np.testing.assert_array_equal(r1.pos_err2[0], r.pos_err2[0])
     assert np.all(np.isfinite(r.nees)) and np.all(r.nis[np.isfinite(r.nis)] >= 0)
+    assert np.all(r.nees_pos >= 0) and np.all(r.nees_vel >= 0)
     rm = houles_imm_trial(np.random.default_rng(4), sets[:1], pd=0.5)
     assert np.any(rm.target_gated == -1) and np.any(np.isnan(rm.nis))
+    with pytest.raises(TypeError, match="model_sets"):
+        houles_imm_trial(np.random.default_rng(3), sets[0])
+    with pytest.raises(TypeError, match=r"model_sets\[1\]"):
+        houles_imm_trial(np.random.default_rng(3), [sets[0], "TOM"])
+
+
+def test_prediction_error_frame():
+    """A CV Kalman filter without clutter: the predicted-position error equals the
+    combined estimate of the previous scan moved by its velocity, in the target frame."""
+    from trackcore.trackers import imm_pdaf_track, two_point_init
+    from trackcore.scenarios import houles_measurements, houles_truth
+
+    r = houles_imm_trial(np.random.default_rng(8), [cv_model_set()], clutter_density=0.0,
+                         pg=1.0)
+    s = houles_measurements(houles_truth(np.arange(91.0)), np.random.default_rng(8),
+                            clutter_density=0.0)
+    R = 400.0 * np.eye(2)
+    x0, P0 = two_point_init(s.z[0], s.z[1], R)
+    res = imm_pdaf_track(cv_model_set(), list(s.z[2:, None, :]), x0, P0, R, pg=1.0,
+                         clutter_density=0.0)
+    truth = houles_truth(np.arange(2.0, 91.0))
+    pred = np.vstack([x0[:2] + x0[2:], res.x[:-1, :2] + res.x[:-1, 2:]])
+    err = pred - truth[:, :2]
+    fwd = truth[:, 2:] / np.linalg.norm(truth[:, 2:], axis=1)[:, None]
+    np.testing.assert_allclose(r.pred_err[0, :, 0], np.sum(err * fwd, axis=1), atol=1e-8)
+    np.testing.assert_allclose(r.pred_err[0, :, 1], fwd[:, 1] * err[:, 0] - fwd[:, 0] * err[:, 1],
+                               atol=1e-8)
 
 
 def test_table_bad_inputs():
     e = np.ones((5, 2, 90))
     ok = np.zeros((5, 2), bool)
-    rng = np.random.default_rng(0)
     with pytest.raises(ValueError, match="pos_err2"):
-        houles_table(np.ones((5, 2, 80)), ok, rng)
+        houles_table(np.ones((5, 2, 80)), ok)
     with pytest.raises(ValueError, match="failed"):
-        houles_table(e, np.zeros((5, 3), bool), rng)
+        houles_table(e, np.zeros((5, 3), bool))
     with pytest.raises(ValueError, match="reference"):
-        houles_table(e, ok, rng, reference=2)
-    with pytest.raises(TypeError, match="rng"):
-        houles_table(e, ok, 1)
+        houles_table(e, ok, reference=2)
     with pytest.raises(ValueError, match="pos_err2"):
         position_failures(-np.ones((2, 90)))
     with pytest.raises(ValueError, match="threshold"):
         position_failures(np.ones((2, 90)), threshold=0.0)
+    with pytest.raises(ValueError, match="pos_err2"):
+        failure_anatomy(np.ones((2, 80)))

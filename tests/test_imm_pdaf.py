@@ -229,3 +229,107 @@ def test_bad_inputs():
         singer_imm_model_set(tau=(0.0, 5.0))
     with pytest.raises(ValueError, match="R"):
         two_point_init([0, 0], [1, 1], -np.eye(2))
+
+
+# ---------------------------------------------------------------- records and builders
+import dataclasses  # noqa: E402
+
+from trackcore.trackers import (TOM_HEADINGS, ct_imm_model_set, cv_model_set,  # noqa: E402
+                                tom_model_set)
+
+
+def test_model_set_record_validates_every_field():
+    good = car_imm_model_set()
+    for field, value, err in [
+        ("T", -1.0, ValueError), ("T", float("nan"), ValueError), ("T", "1", TypeError),
+        ("F", np.zeros((3, 4, 5)), ValueError), ("Q", -np.ones((3, 4, 4)), ValueError),
+        ("Q", np.full((3, 4, 4), np.nan), ValueError), ("H", np.zeros((2, 6)), ValueError),
+        ("transition", np.full((3, 3), 0.5), ValueError), ("mu0", [0.5, 0.5, 0.5], ValueError),
+        ("mu0", [1.1, -0.1, 0.0], ValueError), ("embed", np.eye(4)[:, :3], ValueError),
+        ("init_var", -np.ones(4), ValueError), ("out_index", [0.0, 1.0, 2.0, 3.0], TypeError),
+        ("out_index", [0, 1, 2, 9], ValueError), ("labels", ("a", "b"), ValueError),
+        ("name", 3, TypeError), ("tom", 1, TypeError), ("cwna", "no", TypeError),
+        ("u", np.zeros(2), ValueError), ("var_s", -np.ones(3), ValueError),
+        ("var_f", np.full(3, np.inf), ValueError), ("heading", "compass", ValueError),
+    ]:
+        with pytest.raises(err, match=field):
+            dataclasses.replace(good, **{field: value})
+    with pytest.raises(ValueError, match="T"):
+        IMMModelSet("x", ("CV",), np.eye(4)[None], np.zeros((1, 4, 4)), np.eye(2, 4),
+                    np.ones((1, 1)), np.ones(1), np.eye(4), np.zeros(4), np.arange(4), T=-1)
+    # TOM needs the 4-state
+    sing = singer_imm_model_set()
+    with pytest.raises(ValueError, match="tom"):
+        dataclasses.replace(sing, tom=True)
+
+
+def test_markov_matrix_checks_r():
+    with pytest.raises(ValueError, match="r"):
+        markov_matrix(2.5, 0.9)
+    with pytest.raises(TypeError, match="r"):
+        markov_matrix(True, 0.9)
+    with pytest.raises(ValueError, match="r"):
+        markov_matrix(0, 0.9)
+    np.testing.assert_array_equal(markov_matrix(1, 0.3), [[1.0]])
+    np.testing.assert_allclose(markov_matrix(2.0, 0.9), [[0.9, 0.1], [0.1, 0.9]])
+    np.testing.assert_allclose(markov_matrix(4, 0.7).sum(axis=1), 1.0)
+
+
+def test_general_builders():
+    ct = ct_imm_model_set([0.0, -0.15, 0.1], [1.0, 8.0, 8.0])
+    assert ct.r == 3 and ct.labels[0] == "CV" and not ct.tom
+    np.testing.assert_allclose(ct.mu0, [0.8, 0.1, 0.1])
+    car = car_imm_model_set(omega=0.14)
+    np.testing.assert_allclose(ct_imm_model_set([0.0, 0.14, -0.14], [1.0, 8.0, 8.0]).F, car.F)
+    assert car.name == "CAR-IMM"
+    kf = cv_model_set(sigma=2.0)
+    assert kf.r == 1 and kf.name == "CV-KF"
+    np.testing.assert_array_equal(kf.transition, [[1.0]])
+    tom = tom_model_set([0.0], [3.0])
+    assert tom.r == 1 and tom.tom and tom.heading == "chord"
+    assert set(TOM_HEADINGS) == {"chord", "chord_literal", "velocity"}
+    t3 = tom_imm_model_set(heading="chord_literal", kind="cwna")
+    assert t3.heading == "chord_literal" and t3.cwna and t3.labels[1].endswith("(right)")
+    t4 = tom_model_set([0.0, 50.0, -50.0, 20.0], [1.0, 2.0, 3.0, 4.0], sigma_f=[1, 2, 3, 4])
+    np.testing.assert_allclose(t4.var_f, [1, 4, 9, 16])
+    np.testing.assert_allclose(t4.mu0.sum(), 1.0)
+    with pytest.raises(ValueError, match="sigma_s"):
+        tom_model_set([0.0, 1.0], [1.0])
+    with pytest.raises(ValueError, match="sigma_f"):
+        tom_model_set([0.0, 1.0], [1.0, 1.0], sigma_f=[1.0, 2.0, 3.0])
+    with pytest.raises(ValueError, match="heading"):
+        tom_model_set([0.0], [1.0], heading="gps")
+    with pytest.raises(ValueError, match="sigmas"):
+        ct_imm_model_set([0.0, 0.1], [1.0, -1.0])
+    with pytest.raises(ValueError, match="omegas"):
+        ct_imm_model_set([], [])
+
+
+def test_cv_model_set_is_a_kalman_filter():
+    """One CV model, P_D = 1, no clutter, no gate: the IMM-PDAF is the Kalman filter."""
+    from trackcore.models import cv_process_noise
+    zs, x0, P0 = _clean_run(5)
+    res = imm_pdaf_track(cv_model_set(), list(zs[:, None, :]), x0, P0, R, pg=1.0,
+                         clutter_density=0.0)
+    F = np.eye(4)
+    F[0, 2] = F[1, 3] = 1.0
+    Q = cv_process_noise(1.0, 1.0)
+    H = np.hstack([np.eye(2), np.zeros((2, 2))])
+    x, P = x0.copy(), P0.copy()
+    for k, z in enumerate(zs):
+        x, P = F @ x, F @ P @ F.T + Q
+        S = H @ P @ H.T + R
+        K = P @ H.T @ np.linalg.inv(S)
+        x = x + K @ (z - H @ x)
+        P = (np.eye(4) - K @ H) @ P
+        np.testing.assert_allclose(res.x[k], x, rtol=1e-9, atol=1e-8)
+        np.testing.assert_allclose(res.P[k], P, rtol=1e-8, atol=1e-8)
+    np.testing.assert_array_equal(res.mu, 1.0)
+
+
+def test_kernels_are_not_public():
+    import trackcore.models as models
+    import trackcore.trackers as trackers
+    for mod in (models, trackers):
+        assert not [n for n in mod.__all__ if n.endswith("_kernel")
+                    and n.startswith(("tom_", "chord_", "imm_pdaf"))]

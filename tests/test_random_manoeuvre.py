@@ -45,7 +45,7 @@ def test_forward_lateral_matches_tom_rotation():
 
 
 def test_section_41_statistics_scenario_2():
-    """Chapter spec sec. 9 row 4 on one seed: var_s >> var_f, var_x ~ var_y, rho_fs small."""
+    """The chapter's target on sec. 4.1, scenario 2, on one seed: var_s >> var_f, var_x ~ var_y, rho_fs small."""
     r = random_manoeuvre_turn(np.random.default_rng(3))
     vf, vs = r.accel_fs.var(axis=0)
     vx, vy = r.accel_xy.var(axis=0)

@@ -7,7 +7,8 @@ import scipy.integrate
 import scipy.linalg
 from hypothesis import given, settings, strategies as st
 
-from trackcore.models import (chord_heading, chord_heading_kernel, tom_from_cartesian,
+from trackcore.models.tom import chord_heading_kernel
+from trackcore.models import (chord_heading, tom_from_cartesian,
                               tom_printed_process_noise, tom_process_noise, tom_rotation,
                               tom_to_cartesian, tom_transition, van_loan_discretize)
 

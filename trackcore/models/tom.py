@@ -26,7 +26,8 @@ Process noise: independent accelerations ``w_f, w_s`` drive ``v_f, v_s``.
 :func:`tom_printed_process_noise` returns eq. (7) exactly as printed (with the
 wrong ``q12``) so the chapter can show that it is not a covariance.
 
-The kernels (``*_kernel``) are called by the TOM-IMM tracker.
+The numba kernels (``*_kernel``) are not public: the TOM-IMM tracker
+(:mod:`trackcore.trackers.imm_pdaf`) imports them from this module.
 """
 from __future__ import annotations
 
@@ -45,9 +46,6 @@ __all__ = [
     "tom_from_cartesian",
     "tom_to_cartesian",
     "chord_heading",
-    "tom_transition_kernel",
-    "tom_process_noise_kernel",
-    "chord_heading_kernel",
 ]
 
 _KINDS = ("dwna", "cwna")

@@ -4,8 +4,9 @@ Truth: start at (21689, 10840) m with velocity (-8.3, -399.9) m/s (speed 399.986
 "400 m/s"), constant speed; a right (clockwise) turn at 60 m/s^2 on [20, 35) s
 (turn rate -60/speed = -0.150005 rad/s) and a left turn at 40 m/s^2 on [55, 70) s
 (+40/speed = +0.100003 rad/s), straight flight otherwise.  (Rounding the rates to
--0.15/+0.10 rad/s moves the t = 90 s position by about 1.5 m.)  The final leg passes within 0.71 m of the sensor at
-the origin at t = 90.003 s, so the scenario lasts 90 s (scans t = 0, 1, ..., 90).
+-0.15/+0.10 rad/s moves the t = 90 s position by about 1.5 m.)  The final leg passes
+within 0.70 m of the sensor at the origin at t = 90.003 s, so the scenario lasts 90 s
+(scans t = 0, 1, ..., 90).
 The truth is propagated in closed form with the exact coordinated-turn
 transition, segment by segment.
 
@@ -17,12 +18,15 @@ average ``clutter_density * window^2`` = 8 false returns per scan.
 """
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
 
-from ..core.validation import as_array, as_nonnegative, as_positive, as_probability, as_rng
+from ..core.validation import (as_array, as_int, as_nonnegative, as_positive, as_probability,
+                               as_rng)
 from ..models.motion import coordinated_turn_transition
+from ..stats import Estimate, bootstrap_ci, rate_ci, ratio_ci
 
 __all__ = [
     "HOULES_INITIAL_STATE",
@@ -35,8 +39,13 @@ __all__ = [
     "houles_imm_trial",
     "HOULES_TIMES",
     "houles_windows",
+    "window_mse",
     "position_failures",
     "gate_miss_failures",
+    "FailureAnatomy",
+    "failure_anatomy",
+    "rmse_estimate",
+    "rmse_ratio",
     "HoulesTable",
     "houles_table",
 ]
@@ -148,18 +157,32 @@ def houles_measurements(truth, rng, *, sigma=20.0, pd=1.0, clutter_density=2e-6,
 
 
 # ---------------------------------------------------------------------- the experiment
+@lru_cache(maxsize=1)
+def _scan_truth():
+    """The true states at the scan times t = 0, 1, ..., 90 (computed once, read-only)."""
+    truth = houles_truth(np.arange(0.0, HOULES_DURATION + 1.0))
+    truth.setflags(write=False)
+    return truth
+
+
 class HoulesRun(NamedTuple):
     """One Monte Carlo run of the sec. 4.3 experiment for ``F`` filters.
 
     Times: ``t = 1 .. 90`` for the error arrays (``t = 1`` is the two-point
     initialisation, common to all filters), ``t = 2 .. 90`` for the rest.
+    ``pred_err`` is the error of the predicted position (the mixture's predicted
+    measurement before the update) in the target's own frame: along-track and
+    lateral (positive to the right of the true heading, the TOM convention).
     """
     pos_err2: np.ndarray      # (F, 90) squared position error (m^2), t = 1..90
     vel_err2: np.ndarray      # (F, 90) squared velocity error ((m/s)^2), t = 1..90
-    nees: np.ndarray          # (F, 89) NEES of [x, y, vx, vy], t = 2..90
+    nees: np.ndarray          # (F, 89) NEES of [x, y, vx, vy] (4 dof), t = 2..90
+    nees_pos: np.ndarray      # (F, 89) NEES of the position [x, y] (2 dof)
+    nees_vel: np.ndarray      # (F, 89) NEES of the velocity [vx, vy] (2 dof)
     nis: np.ndarray           # (F, 89) NIS of the target measurement (NaN if missed)
     mu: np.ndarray            # (F, 89, r) model probabilities
     target_gated: np.ndarray  # (F, 89) int8: 1 gated, 0 outside every gate, -1 missed
+    pred_err: np.ndarray      # (F, 89, 2) predicted-position error (along, lateral) (m)
 
 
 def houles_imm_trial(rng, model_sets, *, pd=1.0, pg=0.99, clutter_density=2e-6, window=2000.0,
@@ -167,18 +190,26 @@ def houles_imm_trial(rng, model_sets, *, pd=1.0, pg=0.99, clutter_density=2e-6, 
     """One run of the sec. 4.3 experiment: simulate, then run every IMM-PDAF on the same data.
 
     ``model_sets`` is a sequence of :class:`trackcore.trackers.IMMModelSet`
-    (common random numbers: all filters see the same measurements).  Each
-    filter starts from the two-point initialisation on the target measurements
-    at t = 0 and 1 (``detect_init``: they are always detected), then runs on
-    the scans t = 2 .. 90 with the PDA parameters ``pd``, ``pg`` and
-    ``clutter_density``.  Returns :class:`HoulesRun`.
+    (common random numbers: all filters see the same measurements, and the
+    measurements do not depend on the filters, so runs with the same generator
+    seed see the same data whatever the model sets).  Each filter starts from
+    the two-point initialisation on the target measurements at t = 0 and 1
+    (``detect_init``: they are always detected), then runs on the scans
+    t = 2 .. 90 with the PDA parameters ``pd``, ``pg`` and ``clutter_density``.
+    Returns :class:`HoulesRun`.
     """
     from ..metrics import nees, nis
-    from ..trackers.imm_pdaf import imm_pdaf_track_packed, two_point_init
+    from ..trackers.imm_pdaf import IMMModelSet, imm_pdaf_track_packed, two_point_init
 
     rng = as_rng(rng)
+    if isinstance(model_sets, IMMModelSet) or not hasattr(model_sets, "__len__") \
+            or len(model_sets) == 0:
+        raise TypeError("model_sets must be a non-empty sequence of IMMModelSet")
+    for i, ms in enumerate(model_sets):
+        if not isinstance(ms, IMMModelSet):
+            raise TypeError(f"model_sets[{i}] must be an IMMModelSet, got {type(ms).__name__}")
+    truth = _scan_truth()
     times = np.arange(0.0, HOULES_DURATION + 1.0)
-    truth = houles_truth(times)
     scans = houles_measurements(truth, rng, sigma=sigma, pd=pd, clutter_density=clutter_density,
                                 window=window, times=times)
     init = []
@@ -203,28 +234,41 @@ def houles_imm_trial(rng, model_sets, *, pd=1.0, pg=0.99, clutter_density=2e-6, 
     pos = np.empty((nF, K + 1))
     vel = np.empty((nF, K + 1))
     ne = np.empty((nF, K))
+    ne_p = np.empty((nF, K))
+    ne_v = np.empty((nF, K))
     ni = np.full((nF, K), np.nan)
     mu = np.full((nF, K, r), np.nan)
     gated = np.full((nF, K), -1, dtype=np.int8)
+    perr = np.empty((nF, K, 2))
+    tr = truth[2:]
+    speed = np.hypot(tr[:, 2], tr[:, 3])
+    fwd = tr[:, 2:] / speed[:, None]
+    right = np.column_stack([fwd[:, 1], -fwd[:, 0]])
     for f, ms in enumerate(model_sets):
         res = imm_pdaf_track_packed(ms, z, offsets, x0, P0, R, pd=pd, pg=pg,
                                     clutter_density=clutter_density)
-        err = res.x - truth[2:]
+        err = res.x - tr
         pos[f, 0] = np.sum((x0[:2] - truth[1, :2]) ** 2)
         vel[f, 0] = np.sum((x0[2:] - truth[1, 2:]) ** 2)
         pos[f, 1:] = np.sum(err[:, :2] ** 2, axis=1)
         vel[f, 1:] = np.sum(err[:, 2:] ** 2, axis=1)
         ne[f] = nees(err, res.P)
+        ne_p[f] = nees(err[:, :2], res.P[:, :2, :2])
+        ne_v[f] = nees(err[:, 2:], res.P[:, 2:, 2:])
         if detected.any():
             ni[f, detected] = nis(z[tidx[detected]] - res.z_pred[detected], res.S[detected])
             gated[f, detected] = res.gated[tidx[detected]]
         mu[f, :, :ms.F.shape[0]] = res.mu
-    return HoulesRun(pos, vel, ne, ni, mu, gated)
+        pe = res.z_pred - tr[:, :2]
+        perr[f, :, 0] = np.sum(pe * fwd, axis=1)
+        perr[f, :, 1] = np.sum(pe * right, axis=1)
+    return HoulesRun(pos, vel, ne, ne_p, ne_v, ni, mu, gated, perr)
 
 
 # ---------------------------------------------------------------------- Table 1 statistics
 #: Scan times of the error statistics (t = 1 .. 90).
 HOULES_TIMES = np.arange(1.0, HOULES_DURATION + 1.0)
+_WINDOWS = ("total", "manoeuvring", "non-manoeuvring")
 
 
 def houles_windows():
@@ -238,6 +282,29 @@ def houles_windows():
     t = HOULES_TIMES
     man = ((t >= 21) & (t <= 40)) | ((t >= 56) & (t <= 75))
     return man, ~man
+
+
+def _errors(pos_err2, name="pos_err2"):
+    e = as_array(pos_err2, name, ndim=(1, 2, 3), finite=False)
+    if np.any(np.isnan(e)) or np.any(e < 0):
+        raise ValueError(f"{name} must hold non-negative squared errors (no NaN)")
+    if e.shape[-1] != HOULES_TIMES.size:
+        raise ValueError(f"{name} must have {HOULES_TIMES.size} times (t = 1..90) on its last "
+                         f"axis, got shape {e.shape}")
+    return e
+
+
+def window_mse(pos_err2):
+    """Per-run mean squared position error over the three windows of Table 1.
+
+    ``pos_err2`` (..., 90) squared errors at t = 1..90; returns (..., 3) for
+    (total, manoeuvring, non-manoeuvring).  The pooled RMSE of a set of runs is
+    the square root of the mean of these over the runs.
+    """
+    e = _errors(pos_err2)
+    man, non = houles_windows()
+    return np.stack([e.mean(axis=-1), e[..., man].mean(axis=-1), e[..., non].mean(axis=-1)],
+                    axis=-1)
 
 
 def position_failures(pos_err2, threshold=200.0):
@@ -259,9 +326,7 @@ def gate_miss_failures(target_gated, n_consecutive=3):
     g = np.asarray(target_gated)
     if g.ndim < 1 or not np.issubdtype(g.dtype, np.integer):
         raise TypeError("target_gated must be an integer array (1 gated, 0 not, -1 missed)")
-    n = int(n_consecutive)
-    if n < 1:
-        raise ValueError(f"n_consecutive must be >= 1, got {n_consecutive}")
+    n = as_int(n_consecutive, "n_consecutive", minimum=1)
     out = np.zeros(g.shape[:-1], dtype=bool)
     streak = np.zeros(g.shape[:-1], dtype=np.int64)
     for k in range(g.shape[-1]):
@@ -271,63 +336,155 @@ def gate_miss_failures(target_gated, n_consecutive=3):
     return out
 
 
-class HoulesTable(NamedTuple):
-    """Table 1 statistics for ``F`` filters, columns (total, manoeuvring, non-manoeuvring).
+class FailureAnatomy(NamedTuple):
+    """When and how runs fail (see :func:`failure_anatomy`)."""
+    failed: np.ndarray     # (...) bool: error above the threshold at some time
+    onset: np.ndarray      # (...) first time (s) above the threshold, NaN if never
+    permanent: np.ndarray  # (...) bool: still above the threshold at t = 90 s
+    time_lost: np.ndarray  # (...) number of scans above the threshold
 
-    ``*_ci`` are bootstrap percentile intervals with shape (..., 2).
+
+def failure_anatomy(pos_err2, threshold=200.0):
+    """Onset time, permanence and duration of every failure (``pos_err2`` (..., 90)).
+
+    A run fails when its position error exceeds ``threshold`` (m) at some time
+    t = 1..90 (as :func:`position_failures`); ``onset`` is the first such time
+    and ``permanent`` says whether the error is still above the threshold at the
+    last scan.
     """
-    rmse: np.ndarray           # (F, 3) RMSE over non-failed runs (m)
-    rmse_ci: np.ndarray        # (F, 3, 2)
-    ratio: np.ndarray          # (F, 3) RMSE / RMSE of the reference filter
-    ratio_ci: np.ndarray       # (F, 3, 2)
-    fail_rate: np.ndarray      # (F,)
-    fail_rate_ci: np.ndarray   # (F, 2)
-    rmse_all: np.ndarray       # (F, 3) RMSE over all runs (failures included)
+    e = _errors(pos_err2)
+    threshold = as_positive(threshold, "threshold")
+    above = e > threshold**2
+    failed = above.any(axis=-1)
+    first = np.argmax(above, axis=-1)
+    onset = np.where(failed, HOULES_TIMES[first], np.nan)
+    return FailureAnatomy(failed, onset, above[..., -1], above.sum(axis=-1))
 
 
-def houles_table(pos_err2, failed, rng, *, n_boot=2000, reference=0, level=0.95):
-    """Table 1 (RMSE total/manoeuvring/non-manoeuvring, ratios, failure rates) with
-    bootstrap confidence intervals.
+def _window_index(window):
+    if window not in _WINDOWS:
+        raise ValueError(f"window must be one of {_WINDOWS}, got {window!r}")
+    return _WINDOWS.index(window)
+
+
+def _runs_filters(pos_err2, failed):
+    e = _errors(pos_err2)
+    if e.ndim != 3:
+        raise ValueError(f"pos_err2 must have shape (runs, filters, 90), got {e.shape}")
+    failed = np.asarray(failed)
+    if failed.shape != e.shape[:2] or failed.dtype != np.bool_:
+        raise ValueError(f"failed must be a bool array of shape {e.shape[:2]}")
+    return e, failed
+
+
+def _filter_index(i, name, nF):
+    i = as_int(i, name, minimum=0)
+    if i >= nF:
+        raise ValueError(f"{name} must index one of the {nF} filters, got {i}")
+    return i
+
+
+def _pooled_rmse(cols):
+    """statistic for bootstrap_ci: cols (b, n, 2) = [mse, ok] -> pooled RMSE over ok runs
+    (NaN for a resample without a surviving run; the bootstrap drops it)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.sqrt(np.sum(cols[..., 0] * cols[..., 1], axis=-1)
+                       / np.sum(cols[..., 1], axis=-1))
+
+
+def _pooled_ratio(cols):
+    """cols (b, n, 4) = [mse_a, ok_a, mse_b, ok_b] -> RMSE_a / RMSE_b, each over its own ok runs."""
+    return _pooled_rmse(cols[..., :2]) / _pooled_rmse(cols[..., 2:])
+
+
+def rmse_estimate(pos_err2, failed, f=0, *, window="total"):
+    """Pooled RMSE (m) of filter ``f`` over the runs it did not fail, with its BCa
+    bootstrap interval over runs (:func:`trackcore.stats.bootstrap_ci`).
+
+    ``pos_err2`` (runs, filters, 90), ``failed`` (runs, filters) bool; ``window``
+    is ``"total"``, ``"manoeuvring"`` or ``"non-manoeuvring"``.
+    """
+    e, failed = _runs_filters(pos_err2, failed)
+    f = _filter_index(f, "f", e.shape[1])
+    w = _window_index(window)
+    ok = ~failed[:, f]
+    if ok.sum() < 2:
+        raise ValueError(f"filter {f} survives fewer than 2 runs; no RMSE interval")
+    m = np.where(ok, window_mse(e[:, f])[:, w], 0.0)
+    return bootstrap_ci(_pooled_rmse, np.column_stack([m, ok.astype(float)]))
+
+
+def rmse_ratio(pos_err2, failed, num, den=0, *, window="total", survivors="own"):
+    """RMSE of filter ``num`` as a fraction of filter ``den``'s, with a paired interval.
+
+    ``survivors="own"`` (Table 1's definition): each filter's RMSE pools the runs
+    *it* did not fail; the interval is a paired BCa bootstrap over runs (a
+    resample draws whole runs, with every filter's errors and failures).
+    ``survivors="common"``: only the runs where **no** filter in ``failed``
+    failed; the interval is :func:`trackcore.stats.ratio_ci` of the per-run
+    mean squared errors, whose square root is the RMSE ratio.
+    """
+    e, failed = _runs_filters(pos_err2, failed)
+    nF = e.shape[1]
+    a = _filter_index(num, "num", nF)
+    b = _filter_index(den, "den", nF)
+    w = _window_index(window)
+    if survivors not in ("own", "common"):
+        raise ValueError(f"survivors must be 'own' or 'common', got {survivors!r}")
+    mse = window_mse(e)[:, :, w]
+    if survivors == "own":
+        oka, okb = ~failed[:, a], ~failed[:, b]
+        if oka.sum() < 2 or okb.sum() < 2:
+            raise ValueError("each filter must survive at least 2 runs")
+        cols = np.column_stack([np.where(oka, mse[:, a], 0.0), oka, np.where(okb, mse[:, b], 0.0),
+                                okb]).astype(float)
+        return bootstrap_ci(_pooled_ratio, cols)
+    common = ~failed.any(axis=1)
+    if common.sum() < 2:
+        raise ValueError("fewer than 2 runs where no filter failed")
+    est = ratio_ci(mse[common, a], mse[common, b])
+    return Estimate(float(np.sqrt(est.value)), float(np.sqrt(est.lo)), float(np.sqrt(est.hi)),
+                    est.level, est.n, est.method + " (common survivors, ratio of mean squares)")
+
+
+class HoulesTable(NamedTuple):
+    """Table 1 for ``F`` filters; windows (total, manoeuvring, non-manoeuvring).
+
+    Every entry is a :class:`trackcore.stats.Estimate` (value and 95 % interval):
+    ``rmse[f][w]`` over the runs filter ``f`` did not fail; ``ratio[f][w]``
+    and ``ratio_common[f][w]`` as :func:`rmse_ratio` with ``survivors="own"`` and
+    ``"common"`` (the reference filter's ratio is exactly 1); ``fail_rate[f]``
+    with its Wilson interval.
+    """
+    rmse: tuple
+    ratio: tuple
+    ratio_common: tuple
+    fail_rate: tuple
+    n_ok: np.ndarray      # (F,) runs each filter survived
+    n_common: int         # runs that no filter failed
+    rmse_all: np.ndarray  # (F, 3) RMSE over all runs, failures included (m)
+
+
+def houles_table(pos_err2, failed, *, reference=0):
+    """Table 1 (RMSE total/manoeuvring/non-manoeuvring, ratios to ``reference``,
+    failure rates) with the book's 95 % intervals (see :class:`HoulesTable`).
 
     ``pos_err2`` (runs, F, 90) squared position errors at t = 1..90;
-    ``failed`` (runs, F) bool; the RMSEs pool squared errors over the
-    non-failed runs and the window's samples, ``sqrt(mean)``.  The bootstrap
-    resamples runs (the same resample for every filter, so ratios are paired).
+    ``failed`` (runs, F) bool.
     """
-    e = as_array(pos_err2, "pos_err2", ndim=3)
-    runs, nF, T = e.shape
-    if T != HOULES_TIMES.size:
-        raise ValueError(f"pos_err2 must have {HOULES_TIMES.size} times, got {T}")
-    failed = np.asarray(failed)
-    if failed.shape != (runs, nF) or failed.dtype != np.bool_:
-        raise ValueError(f"failed must be a bool array of shape {(runs, nF)}")
-    rng = as_rng(rng)
-    n_boot = int(n_boot)
-    if n_boot < 1:
-        raise ValueError("n_boot must be >= 1")
-    if not 0 <= int(reference) < nF:
-        raise ValueError(f"reference must index one of the {nF} filters")
-    level = as_probability(level, "level", open_low=True, open_high=True)
-    man, non = houles_windows()
-    masks = [np.ones(T, bool), man, non]
-    sums = np.stack([e[:, :, w].sum(axis=2) for w in masks], axis=2)   # (runs, F, 3)
-    lens = np.array([w.sum() for w in masks], dtype=float)
-    ok = (~failed).astype(float)                                        # (runs, F)
-
-    def stats(weights):
-        # weights (B, runs): multiplicity of each run
-        num = np.einsum("br,rfw->bfw", weights, sums * ok[:, :, None])
-        den = np.einsum("br,rf->bf", weights, ok)[:, :, None] * lens
-        with np.errstate(invalid="ignore", divide="ignore"):
-            rm = np.sqrt(num / den)
-        fr = np.einsum("br,rf->bf", weights, 1.0 - ok) / weights.sum(axis=1)[:, None]
-        return rm, rm / rm[:, reference:reference + 1, :], fr
-
-    rm, ra, fr = stats(np.ones((1, runs)))
-    W = rng.multinomial(runs, np.full(runs, 1.0 / runs), size=n_boot).astype(float)
-    brm, bra, bfr = stats(W)
-    q = [(1 - level) / 2 * 100, (1 + level) / 2 * 100]
-    all_rm = np.sqrt(sums.sum(axis=0) / (runs * lens))
-    return HoulesTable(rm[0], np.moveaxis(np.nanpercentile(brm, q, axis=0), 0, -1), ra[0],
-                       np.moveaxis(np.nanpercentile(bra, q, axis=0), 0, -1), fr[0],
-                       np.moveaxis(np.percentile(bfr, q, axis=0), 0, -1), all_rm)
+    e, failed = _runs_filters(pos_err2, failed)
+    runs, nF, _ = e.shape
+    ref = _filter_index(reference, "reference", nF)
+    one = Estimate(1.0, 1.0, 1.0, n=runs, method="reference")
+    rmse, ratio, common = [], [], []
+    for f in range(nF):
+        rmse.append(tuple(rmse_estimate(e, failed, f, window=w) for w in _WINDOWS))
+        ratio.append(tuple(one if f == ref else rmse_ratio(e, failed, f, ref, window=w)
+                           for w in _WINDOWS))
+        common.append(tuple(one if f == ref else
+                            rmse_ratio(e, failed, f, ref, window=w, survivors="common")
+                            for w in _WINDOWS))
+    fail = tuple(rate_ci(int(failed[:, f].sum()), runs) for f in range(nF))
+    all_rm = np.sqrt(window_mse(e).mean(axis=0))
+    return HoulesTable(tuple(rmse), tuple(ratio), tuple(common), fail,
+                       (~failed).sum(axis=0), int((~failed.any(axis=1)).sum()), all_rm)

@@ -6,7 +6,8 @@ Poisson-distributed duration, and compares the statistics of the Cartesian
 acceleration components ``(a_x, a_y)`` with those of the target-oriented ones
 ``(a_f, a_s)`` (forward, lateral).  It gives neither the noise levels, the
 mean segment length, the speed nor what happens between segments; the
-generators below are the chapter's documented choices (spec sec. 7.1):
+generators below are the chapter's documented choices (book chapter
+"Target-oriented velocity model", *Choices we made*):
 
 * dt = 1 s, start at the origin at 200 m/s along +x; segment durations
   ``max(1, Poisson(mean_duration))``, back to back.

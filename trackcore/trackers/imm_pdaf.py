@@ -1,17 +1,27 @@
 """IMM-PDAF for one target in clutter, with the model sets of Yoon & Ko (sec. 4.3).
 
-Three model sets share one numba whole-run kernel:
+The model sets share one numba whole-run kernel:
 
 * **Singer-IMM** (as Houles & Bar-Shalom 1989): constant velocity embedded in
   the 6-state ``[x, y, vx, vy, ax, ay]`` (acceleration forced to 0) plus two
   Singer models (``tau`` = 20 s / 5 s, ``sigma_m`` = 15 / 60 m/s^2).
 * **CAR-IMM** (constant angle-rate, Dufour & Mariton): state ``[x, y, vx, vy]``,
-  CV plus exact coordinated-turn models at ``omega = +-0.14`` rad/s.
-* **TOM-IMM** (the paper): three target-oriented models ``[x, y, v_f, v_s]``
-  with lateral-velocity inputs ``u = 0, +70, -70`` m/s and the cycle of the
-  chapter spec (sec. 6): heading from the chord of the last two combined
-  position estimates (eq. 8, ``atan2``), mixing, ``v_s <- u_j``, prediction,
-  PDA update, combination, then ``v_s <- 0`` in every model.
+  CV plus exact coordinated-turn models at ``omega = +-0.14`` rad/s
+  (:func:`car_imm_model_set`); any set of known turn rates with
+  :func:`ct_imm_model_set` (e.g. the scenario's true rates, a plausibility bound).
+* **TOM-IMM** (the paper): target-oriented models ``[x, y, v_f, v_s]`` with
+  lateral-velocity inputs ``u_j`` (``0, +70, -70`` m/s in the paper,
+  :func:`tom_imm_model_set`; any inputs with :func:`tom_model_set`).  One TOM
+  cycle at scan ``k`` (the chapter "TOM-IMM" of the book): heading ``phi`` from
+  eq. (8) (``atan2`` of the chord of the combined position estimates at
+  ``k - 2`` and ``k - 1``), mixing, ``v_s <- u_j`` in model ``j``'s mixed mean,
+  prediction with ``Phi(phi)`` and ``Q_j(phi)``, PDA update, combination, then
+  ``v_s <- 0`` in every model.  Two other headings are kept for ablations:
+  ``heading="chord_literal"`` indexes eq. (8) literally (``Phi(k) =
+  Phi(t_{k+1}, t_k)`` with the chord of ``k - 1`` and ``k - 2``, i.e. the
+  chord one scan older than the default), and ``heading="velocity"`` takes the
+  direction of the combined velocity estimate at ``k - 1``.
+* A single constant-velocity Kalman filter (:func:`cv_model_set`, one model).
 
 One scan of the IMM-PDAF (Blom & Bar-Shalom 1988; Houles & Bar-Shalom 1989):
 mixing with the Markov matrix; per-model prediction; chi-square gates per model
@@ -27,6 +37,7 @@ Outputs are reported in Cartesian ``[x, y, vx, vy]`` whatever the model state.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numba as nb
@@ -34,9 +45,9 @@ import numpy as np
 
 from ..association.gating import gate_threshold, mahalanobis_gate_kernel
 from ..association.pda import pda_betas_kernel, pda_update_kernel
-from ..core.validation import (as_offsets, as_array, as_covariance, as_measurements, as_nonnegative,
-                               as_positive, as_probabilities, as_probability, as_scalar,
-                               as_square_matrix, as_vector)
+from ..core.validation import (as_array, as_covariance, as_int, as_measurements,
+                               as_nonnegative, as_offsets, as_positive, as_probabilities,
+                               as_probability, as_scalar, as_square_matrix, as_vector)
 from ..filters.imm import imm_combine_kernel, imm_mix_kernel, imm_mode_update_kernel
 from ..filters.kalman import cholesky_lower_kernel, kf_predict_kernel
 from ..models.motion import (coordinated_turn_transition, cv_process_noise, kron_axes,
@@ -44,50 +55,166 @@ from ..models.motion import (coordinated_turn_transition, cv_process_noise, kron
 from ..models.tom import chord_heading_kernel, tom_process_noise_kernel, tom_transition_kernel
 
 __all__ = [
+    "TOM_HEADINGS",
     "IMMModelSet",
     "IMMPDAFResult",
     "markov_matrix",
     "singer_imm_model_set",
+    "ct_imm_model_set",
     "car_imm_model_set",
+    "cv_model_set",
+    "tom_model_set",
     "tom_imm_model_set",
     "two_point_init",
     "pack_scans",
     "imm_pdaf_track",
     "imm_pdaf_track_packed",
-    "imm_pdaf_run_kernel",
 ]
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
+#: Heading rules of the TOM cycle: ``"chord"`` (eq. 8 with the most recent
+#: chord, the chapter's reading), ``"chord_literal"`` (eq. 8 indexed as printed
+#: with ``Phi(k) = Phi(t_{k+1}, t_k)``: the chord one scan older) and
+#: ``"velocity"`` (direction of the combined velocity estimate).
+TOM_HEADINGS = ("chord", "chord_literal", "velocity")
 
-class IMMModelSet(NamedTuple):
-    """A set of ``r`` linear models for the IMM-PDAF (build with the ``*_model_set`` functions).
 
-    ``F``, ``Q`` (r, n, n) are used as given for ``tom=False``; for ``tom=True``
-    they are recomputed every scan from the chord heading with ``T``,
-    ``var_f``, ``var_s`` (r,) and the lateral inputs ``u`` (r,).  ``H`` (2, n)
-    picks the position.  ``embed`` (n, 4) maps a Cartesian ``[x, y, vx, vy]``
-    initial estimate into the model state (TOM: then rotated by the initial
-    heading) and ``init_var`` (n,) is added to the diagonal of the embedded
-    initial covariance.  ``out_index`` (4,) gives the state entries of
-    ``[x, y, vx, vy]`` (TOM: ``[x, y, v_f, v_s]``, rotated back).
+def _stack3(x, name, r, n):
+    a = as_array(x, name, ndim=3)
+    if a.shape != (r, n, n):
+        raise ValueError(f"{name} must have shape {(r, n, n)}, got {a.shape}")
+    return a
+
+
+def _vec(x, name, r, *, nonnegative=False):
+    a = as_array(x, name, ndim=1)
+    if a.shape != (r,):
+        raise ValueError(f"{name} must have shape ({r},), got {a.shape}")
+    if nonnegative and a.size and a.min() < 0:
+        raise ValueError(f"{name} must be >= 0")
+    return a
+
+
+def _flag(x, name):
+    if not isinstance(x, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a bool, got {type(x).__name__}")
+    return bool(x)
+
+
+@dataclass(frozen=True, eq=False)
+class IMMModelSet:
+    """A set of ``r`` linear models for the IMM-PDAF (build it with the ``*_model_set``
+    functions; every field is checked when the record is built, also by
+    :func:`dataclasses.replace`).
+
+    Attributes
+    ----------
+    name : str
+        Display name, e.g. ``"TOM-IMM"``.
+    labels : tuple of str
+        One label per model.
+    F, Q : ndarray, shape (r, n, n)
+        Transition and process-noise covariance of each model (used as given when
+        ``tom`` is false; recomputed every scan from the heading when it is true).
+    H : ndarray, shape (2, n)
+        Picks the position.
+    transition : ndarray, shape (r, r)
+        Markov matrix, ``transition[i, j] = P(model j at k | model i at k-1)``.
+    mu0 : ndarray, shape (r,)
+        Initial model probabilities.
+    embed : ndarray, shape (n, 4)
+        Maps a Cartesian ``[x, y, vx, vy]`` initial estimate into the model state
+        (TOM: then rotated by the initial heading).
+    init_var : ndarray, shape (n,)
+        Added to the diagonal of the embedded initial covariance.
+    out_index : ndarray of int, shape (4,)
+        State entries of ``[x, y, vx, vy]`` (TOM: ``[x, y, v_f, v_s]``, rotated back).
+    tom : bool
+        Target-oriented models (``n = 4``) with the TOM cycle.
+    T : float
+        Sampling interval (s), ``> 0``.
+    u, var_f, var_s : ndarray, shape (r,)
+        TOM lateral inputs (m/s) and forward/lateral acceleration variances.
+    cwna : bool
+        TOM process noise of the continuous-white-noise form instead of DWNA.
+    heading : str
+        TOM heading rule, one of :data:`TOM_HEADINGS`.
     """
+
     name: str
     labels: tuple
     F: np.ndarray
     Q: np.ndarray
     H: np.ndarray
-    transition: np.ndarray   # Markov matrix Pi[i, j] = P(model j at k | model i at k-1)
+    transition: np.ndarray
     mu0: np.ndarray
     embed: np.ndarray
     init_var: np.ndarray
     out_index: np.ndarray
-    tom: bool
-    T: float
-    u: np.ndarray
-    var_f: np.ndarray
-    var_s: np.ndarray
-    cwna: bool
+    tom: bool = False
+    T: float = 1.0
+    u: np.ndarray = None
+    var_f: np.ndarray = None
+    var_s: np.ndarray = None
+    cwna: bool = False
+    heading: str = "chord"
+
+    def __post_init__(self):
+        def put(field, value):
+            object.__setattr__(self, field, value)
+
+        if not isinstance(self.name, str):
+            raise TypeError(f"name must be a str, got {type(self.name).__name__}")
+        F = as_array(self.F, "F", ndim=3)
+        r, n = F.shape[0], F.shape[1]
+        if r < 1 or F.shape[2] != n or n < 4:
+            raise ValueError(f"F must have shape (r >= 1, n >= 4, n), got {F.shape}")
+        labels = self.labels
+        if isinstance(labels, str) or not hasattr(labels, "__len__") or len(labels) != r \
+                or not all(isinstance(s, str) for s in labels):
+            raise ValueError(f"labels must be {r} strings, one per model")
+        put("labels", tuple(labels))
+        put("F", F)
+        Q = _stack3(self.Q, "Q", r, n)
+        for j in range(r):
+            as_covariance(Q[j], f"Q[{j}]", n)
+        put("Q", Q)
+        H = as_array(self.H, "H", ndim=2)
+        if H.shape != (2, n):
+            raise ValueError(f"H must have shape {(2, n)}, got {H.shape}")
+        put("H", H)
+        put("transition", _check_transition(self.transition, r))
+        put("mu0", _check_mu0(self.mu0, r))
+        embed = as_array(self.embed, "embed", ndim=2)
+        if embed.shape != (n, 4):
+            raise ValueError(f"embed must have shape {(n, 4)}, got {embed.shape}")
+        put("embed", embed)
+        put("init_var", _vec(self.init_var, "init_var", n, nonnegative=True))
+        oi = np.asarray(self.out_index)
+        if oi.shape != (4,) or not np.issubdtype(oi.dtype, np.integer):
+            raise TypeError("out_index must be 4 integers")
+        if oi.min() < 0 or oi.max() >= n:
+            raise ValueError(f"out_index must index the {n} state entries")
+        put("out_index", np.ascontiguousarray(oi, dtype=np.int64))
+        tom = _flag(self.tom, "tom")
+        if tom and n != 4:
+            raise ValueError(f"tom=True needs the 4-state [x, y, v_f, v_s], got n = {n}")
+        put("T", as_positive(self.T, "T"))
+        zeros = np.zeros(r)
+        put("u", zeros if self.u is None else _vec(self.u, "u", r))
+        put("var_f", zeros if self.var_f is None else
+            _vec(self.var_f, "var_f", r, nonnegative=True))
+        put("var_s", zeros if self.var_s is None else
+            _vec(self.var_s, "var_s", r, nonnegative=True))
+        put("cwna", _flag(self.cwna, "cwna"))
+        if self.heading not in TOM_HEADINGS:
+            raise ValueError(f"heading must be one of {TOM_HEADINGS}, got {self.heading!r}")
+
+    @property
+    def r(self) -> int:
+        """Number of models."""
+        return self.F.shape[0]
 
 
 class IMMPDAFResult(NamedTuple):
@@ -103,10 +230,13 @@ class IMMPDAFResult(NamedTuple):
 
 # ---------------------------------------------------------------------- model sets
 def markov_matrix(r, p_stay):
-    """``r x r`` Markov matrix with ``p_stay`` on the diagonal and the rest spread evenly."""
-    r = int(r)
-    if r < 1:
-        raise ValueError(f"r must be >= 1, got {r}")
+    """``r x r`` Markov matrix with ``p_stay`` on the diagonal and the rest spread evenly.
+
+    ``r`` is a whole number of models (``>= 1``); ``p_stay`` a probability.
+    """
+    if isinstance(r, float) and not r.is_integer():
+        raise ValueError(f"r must be a whole number of models, got {r}")
+    r = as_int(r, "r", minimum=1)
     p = as_probability(p_stay, "p_stay")
     if r == 1:
         return np.ones((1, 1))
@@ -131,17 +261,25 @@ def _check_mu0(mu0, r):
     return mu
 
 
-def _finish(name, labels, F, Q, H, transition, mu0, embed, init_var, out_index, tom=False, T=1.0,
-            u=None, var_f=None, var_s=None, cwna=False):
+def _default_mu0(r):
+    """0.8 on the first (non-manoeuvring) model, the rest spread evenly."""
+    if r == 1:
+        return np.ones(1)
+    return np.r_[0.8, np.full(r - 1, 0.2 / (r - 1))]
+
+
+def _finish(name, labels, F, Q, H, transition, mu0, embed, init_var, out_index, **tom):
     r = F.shape[0]
-    transition = markov_matrix(r, 0.9) if transition is None else _check_transition(transition, r)
-    mu0 = _check_mu0(mu0, r)
-    z = np.zeros(r)
-    return IMMModelSet(name, tuple(labels), np.ascontiguousarray(F), np.ascontiguousarray(Q),
-                       np.ascontiguousarray(H), transition, mu0, np.ascontiguousarray(embed),
-                       np.ascontiguousarray(init_var), np.asarray(out_index, dtype=np.int64), tom,
-                       float(T), z if u is None else u, z if var_f is None else var_f,
-                       z if var_s is None else var_s, bool(cwna))
+    transition = markov_matrix(r, 0.9) if transition is None else transition
+    mu0 = _default_mu0(r) if mu0 is None else mu0
+    return IMMModelSet(name, tuple(labels), F, Q, H, transition, mu0, embed, init_var,
+                       np.asarray(out_index, dtype=np.int64), **tom)
+
+
+def _position_H(n):
+    H = np.zeros((2, n))
+    H[0, 0] = H[1, 1] = 1.0
+    return H
 
 
 def singer_imm_model_set(T=1.0, tau=(20.0, 5.0), sigma_m=(15.0, 60.0), sigma_cv=1.0,
@@ -174,13 +312,36 @@ def singer_imm_model_set(T=1.0, tau=(20.0, 5.0), sigma_m=(15.0, 60.0), sigma_cv=
     for i in range(tau.size):
         F[i + 1] = kron_axes(singer_transition(T, tau[i]), 2)
         Q[i + 1] = kron_axes(singer_process_noise(T, tau[i], sigma_m[i]), 2)
-        labels.append(f"Singer tau={tau[i]:g} s")
-    H = np.zeros((2, 6))
-    H[0, 0] = H[1, 1] = 1.0
+        labels.append(f"Singer τ = {tau[i]:g} s")
     embed = np.zeros((6, 4))
     embed[:4, :4] = np.eye(4)
     init_var = np.r_[np.zeros(4), init_sigma_a**2, init_sigma_a**2]
-    return _finish("Singer-IMM", labels, F, Q, H, transition, mu0, embed, init_var, [0, 1, 2, 3])
+    return _finish("Singer-IMM", labels, F, Q, _position_H(6), transition, mu0, embed,
+                   init_var, [0, 1, 2, 3], T=T)
+
+
+def ct_imm_model_set(omegas, sigmas, T=1.0, transition=None, mu0=None, name="CT-IMM"):
+    """Coordinated-turn models at known rates ``omegas`` (rad/s, ``0`` = constant
+    velocity, positive = counter-clockwise) on ``[x, y, vx, vy]``.
+
+    ``sigmas`` (m/s^2, one per model) are the DWNA process-noise standard
+    deviations.  ``transition`` defaults to ``markov_matrix(r, 0.9)`` and
+    ``mu0`` to 0.8 on the first model with the rest spread evenly.
+    """
+    T = as_positive(T, "T")
+    omegas = as_array(omegas, "omegas", ndim=1)
+    if omegas.size == 0:
+        raise ValueError("omegas must hold at least one turn rate")
+    sigmas = as_array(sigmas, "sigmas", shape=(omegas.size,))
+    if sigmas.min() < 0:
+        raise ValueError("sigmas must be >= 0")
+    if not isinstance(name, str):
+        raise TypeError(f"name must be a str, got {type(name).__name__}")
+    F = np.stack([coordinated_turn_transition(w, T) for w in omegas])
+    Q = np.stack([cv_process_noise(T, s**2) for s in sigmas])
+    labels = ["CV" if w == 0 else f"CT {w:+.4g} rad/s" for w in omegas]
+    return _finish(name, labels, F, Q, _position_H(4), transition, mu0, np.eye(4),
+                   np.zeros(4), [0, 1, 2, 3], T=T)
 
 
 def car_imm_model_set(T=1.0, omega=0.14, sigma_cv=1.0, sigma_ct=8.0, transition=None,
@@ -191,45 +352,79 @@ def car_imm_model_set(T=1.0, omega=0.14, sigma_cv=1.0, sigma_ct=8.0, transition=
     models (m/s^2).  Model order: CV, turn ``+omega`` (left), turn ``-omega``
     (right).
     """
-    T = as_positive(T, "T")
     omega = as_scalar(omega, "omega")
     sigma_cv = as_nonnegative(sigma_cv, "sigma_cv")
     sigma_ct = as_nonnegative(sigma_ct, "sigma_ct")
-    F = np.stack([coordinated_turn_transition(0.0, T), coordinated_turn_transition(omega, T),
-                  coordinated_turn_transition(-omega, T)])
-    Q = np.stack([cv_process_noise(T, sigma_cv**2), cv_process_noise(T, sigma_ct**2),
-                  cv_process_noise(T, sigma_ct**2)])
-    H = np.zeros((2, 4))
-    H[0, 0] = H[1, 1] = 1.0
-    labels = ["CV", f"CT {omega:+g} rad/s", f"CT {-omega:+g} rad/s"]
-    return _finish("CAR-IMM", labels, F, Q, H, transition, mu0, np.eye(4), np.zeros(4),
-                   [0, 1, 2, 3])
+    return ct_imm_model_set([0.0, omega, -omega], [sigma_cv, sigma_ct, sigma_ct], T=T,
+                            transition=transition, mu0=mu0, name="CAR-IMM")
+
+
+def cv_model_set(T=1.0, sigma=1.0):
+    """One constant-velocity model (DWNA, ``sigma`` in m/s^2): run with ``pd = 1``,
+    ``pg = 1`` and no clutter, the IMM-PDAF is then a plain Kalman filter."""
+    sigma = as_nonnegative(sigma, "sigma")
+    return ct_imm_model_set([0.0], [sigma], T=T, name="CV-KF")
+
+
+def tom_model_set(u, sigma_s, sigma_f=1.0, T=1.0, transition=None, mu0=None, kind="dwna",
+                  heading="chord", name="TOM-IMM", labels=None):
+    """Target-oriented models with lateral inputs ``u`` (m/s, one per model; ``+`` is
+    to the right of the heading) and lateral noises ``sigma_s`` (m/s^2, one per
+    model).
+
+    ``sigma_f`` (m/s^2, a scalar or one per model) is the forward noise; the
+    process noise is :func:`trackcore.models.tom_process_noise` of ``kind``
+    (``"dwna"`` or ``"cwna"``).  ``heading`` is one of :data:`TOM_HEADINGS`.
+    ``transition`` defaults to ``markov_matrix(r, 0.9)`` and ``mu0`` to 0.8 on the
+    first model with the rest spread evenly.  ``labels`` (one string per model)
+    default to the inputs.
+    """
+    T = as_positive(T, "T")
+    u = as_array(u, "u", ndim=1)
+    if u.size == 0:
+        raise ValueError("u must hold at least one lateral input")
+    r = u.size
+    sigma_s = as_array(sigma_s, "sigma_s", shape=(r,))
+    sigma_f = as_array(sigma_f, "sigma_f", ndim=(0, 1))
+    sigma_f = np.broadcast_to(sigma_f, (r,)).copy() if sigma_f.size in (1, r) else None
+    if sigma_f is None:
+        raise ValueError(f"sigma_f must be a scalar or hold {r} values")
+    if sigma_s.min() < 0:
+        raise ValueError("sigma_s must be >= 0")
+    if sigma_f.min() < 0:
+        raise ValueError("sigma_f must be >= 0")
+    if kind not in ("dwna", "cwna"):
+        raise ValueError(f"kind must be 'dwna' or 'cwna', got {kind!r}")
+    if heading not in TOM_HEADINGS:
+        raise ValueError(f"heading must be one of {TOM_HEADINGS}, got {heading!r}")
+    if labels is None:
+        labels = ["TOM u=0" if v == 0 else
+                  f"TOM u={v:+g} ({'right' if v > 0 else 'left'})" for v in u]
+    zeros = np.zeros((r, 4, 4))
+    return _finish(name, labels, zeros, zeros.copy(), _position_H(4), transition, mu0,
+                   np.eye(4), np.zeros(4), [0, 1, 2, 3], tom=True, T=T, u=u,
+                   var_f=sigma_f**2, var_s=sigma_s**2, cwna=(kind == "cwna"),
+                   heading=heading)
 
 
 def tom_imm_model_set(T=1.0, u=70.0, sigma_f=1.0, sigma_s_centre=3.0, sigma_s_turn=20.0,
-                      transition=None, mu0=(0.8, 0.1, 0.1), kind="dwna"):
-    """Three target-oriented models with lateral inputs ``0, +u, -u`` (m/s).
+                      transition=None, mu0=(0.8, 0.1, 0.1), kind="dwna", heading="chord"):
+    """The paper's three target-oriented models with lateral inputs ``0, +u, -u`` (m/s).
 
     ``+u`` is a right turn (``+v_s`` points right of the heading).  Process
     noise :func:`trackcore.models.tom_process_noise` of ``kind`` with
     ``sigma_f`` for all models and ``sigma_s_centre`` / ``sigma_s_turn`` for the
-    lateral axis.
+    lateral axis; ``heading`` is one of :data:`TOM_HEADINGS` (see
+    :func:`tom_model_set`).
     """
-    T = as_positive(T, "T")
     u = as_nonnegative(u, "u")
     sigma_f = as_nonnegative(sigma_f, "sigma_f")
     sc = as_nonnegative(sigma_s_centre, "sigma_s_centre")
     st = as_nonnegative(sigma_s_turn, "sigma_s_turn")
-    if kind not in ("dwna", "cwna"):
-        raise ValueError(f"kind must be 'dwna' or 'cwna', got {kind!r}")
-    H = np.zeros((2, 4))
-    H[0, 0] = H[1, 1] = 1.0
-    labels = ["TOM u=0", f"TOM u=+{u:g} (right)", f"TOM u=-{u:g} (left)"]
-    zeros = np.zeros((3, 4, 4))
-    return _finish("TOM-IMM", labels, zeros, zeros.copy(), H, transition, mu0, np.eye(4),
-                   np.zeros(4), [0, 1, 2, 3], tom=True, T=T, u=np.array([0.0, u, -u]),
-                   var_f=np.full(3, sigma_f**2), var_s=np.array([sc**2, st**2, st**2]),
-                   cwna=(kind == "cwna"))
+    labels = ("TOM u=0", f"TOM u=+{u:g} (right)", f"TOM u=-{u:g} (left)")
+    return tom_model_set([0.0, u, -u], [sc, st, st], sigma_f=sigma_f, T=T,
+                         transition=transition, mu0=mu0, kind=kind, heading=heading,
+                         labels=labels)
 
 
 def two_point_init(z0, z1, R, T=1.0):
@@ -256,14 +451,18 @@ def pack_scans(scans, d=2):
 # ---------------------------------------------------------------------- kernels
 @nb.njit(cache=True)
 def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_f, var_s, cwna,
-                        prev2, prev1, phi0, out_index, pd, pg, gamma, log_lam,
-                        xs, Ps, mus, zps, Ss, gated, headings):
+                        heading_mode, prev2, prev1, v0, phi0, out_index, pd, pg, gamma,
+                        log_lam, xs, Ps, mus, zps, Ss, gated, headings):
     """Whole-run IMM-PDAF over the scans ``z[offsets[k]:offsets[k+1]]``.
 
     ``x0`` (n,), ``P0`` (n, n): the initial estimate in model coordinates
     (every model starts from it); ``prev2``/``prev1`` (2,): the combined
-    positions at the two previous scans (TOM heading chord); ``phi0`` the
-    initial heading.  ``log_lam = log(lambda)`` (``-inf`` without clutter),
+    positions at the two previous scans (TOM heading chord); ``v0`` (2,) the
+    initial Cartesian velocity and ``phi0`` the initial heading.
+    ``heading_mode``: 0 chord of the last two combined positions, 1 the chord
+    one scan older (eq. 8 indexed literally; the first scan extrapolates the
+    initial chord back, so it uses ``phi0``), 2 direction of the last combined
+    velocity.  ``log_lam = log(lambda)`` (``-inf`` without clutter),
     ``gamma`` the gate threshold.  Outputs (preallocated): ``xs`` (K, 4),
     ``Ps`` (K, 4, 4), ``mus`` (K, r), ``zps`` (K, 2), ``Ss`` (K, 2, 2),
     ``gated`` (N,), ``headings`` (K,).  Returns -1, or the scan index at which
@@ -303,6 +502,8 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
     miss = 1.0 - pd * pg
     log_miss = math.log(miss) if miss > 0 else -np.inf
     p2x, p2y, p1x, p1y = prev2[0], prev2[1], prev1[0], prev1[1]
+    p3x, p3y = 2.0 * p2x - p1x, 2.0 * p2y - p1y
+    vcx, vcy = v0[0], v0[1]
     phi = phi0
     for k in range(K):
         lo, hi = offsets[k], offsets[k + 1]
@@ -310,7 +511,12 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
         zk = z[lo:hi]
         # 1. heading and the models of this scan (TOM)
         if tom:
-            phi = chord_heading_kernel(p2x, p2y, p1x, p1y, phi, 1e-6)
+            if heading_mode == 0:
+                phi = chord_heading_kernel(p2x, p2y, p1x, p1y, phi, 1e-6)
+            elif heading_mode == 1:
+                phi = chord_heading_kernel(p3x, p3y, p2x, p2y, phi, 1e-6)
+            else:
+                phi = chord_heading_kernel(0.0, 0.0, vcx, vcy, phi, 1e-6)
             for j in range(r):
                 tom_transition_kernel(phi, T, Fk[j])
                 tom_process_noise_kernel(phi, T, var_f[j], var_s[j], cwna, Qk[j])
@@ -420,7 +626,7 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
                 s += M[a, b] * xc[b]
             xs[k, a] = s
         for a in range(4):
-            for b in range(4):
+            for b in range(a, 4):  # exactly symmetric output
                 s = 0.0
                 for e in range(n):
                     if M[a, e] == 0.0:
@@ -428,12 +634,15 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
                     for f in range(n):
                         s += M[a, e] * Pcm[e, f] * M[b, f]
                 Ps[k, a, b] = s
+                Ps[k, b, a] = s
         for j in range(r):
             mus[k, j] = mu[j]
         # 8. TOM: remember the combined position, reset v_s
         if tom:
+            p3x, p3y = p2x, p2y
             p2x, p2y = p1x, p1y
             p1x, p1y = xc[0], xc[1]
+            vcx, vcy = xs[k, 2], xs[k, 3]
             for j in range(r):
                 X[j, 3] = 0.0
     return -1
@@ -464,7 +673,6 @@ def imm_pdaf_track_packed(models, z, offsets, x0, P0, R, *, pd=1.0, pg=0.99,
     pg = as_probability(pg, "pg", open_low=True)
     lam = as_nonnegative(clutter_density, "clutter_density")
     gamma = gate_threshold(pg, 2)
-    n = models.F.shape[1]
     r = models.F.shape[0]
     xm = models.embed @ x0
     Pm = models.embed @ P0 @ models.embed.T + np.diag(models.init_var)
@@ -490,7 +698,8 @@ def imm_pdaf_track_packed(models, z, offsets, x0, P0, R, *, pd=1.0, pg=0.99,
     bad = imm_pdaf_run_kernel(z, offsets, np.ascontiguousarray(xm), np.ascontiguousarray(Pm),
                               models.F, models.Q, models.H, R, models.transition, models.mu0,
                               models.tom, models.T, models.u, models.var_f, models.var_s,
-                              models.cwna, np.ascontiguousarray(prev2), x0[:2].copy(), phi0,
+                              models.cwna, TOM_HEADINGS.index(models.heading),
+                              np.ascontiguousarray(prev2), x0[:2].copy(), x0[2:].copy(), phi0,
                               models.out_index, pd, pg, float(gamma),
                               math.log(lam) if lam > 0 else -math.inf,
                               xs, Ps, mus, zps, Ss, gated, heads)
