@@ -23,8 +23,8 @@ from statistics import median
 import numba as nb
 import numpy as np
 
-from trackcore.filters import (MODEL_RANGE_BEARING, bootstrap_step, bootstrap_step_kernel,
-                               noise_factor)
+from trackcore.filters import bootstrap_step
+from trackcore.filters.particle import MODEL_RANGE_BEARING, bootstrap_step_kernel, noise_factor
 from trackcore.models import cv_process_noise, cv_transition, range_bearing
 
 from ._common import Stopwatch, median_time, record
