@@ -37,6 +37,7 @@ REPS = 7
 
 def _time(fn, min_seconds=0.02, max_calls=100_000):
     """CPU seconds per call of ``fn``, repeated until ``min_seconds`` of CPU time."""
+    fn()
     n = 1
     while True:
         with Stopwatch() as sw:

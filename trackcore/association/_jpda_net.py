@@ -109,8 +109,7 @@ def _greedy_order(n_p, ptr, idx, n_c):
                 touched[c] = True
                 live += 1
         mid = live
-        if mid > max_live:
-            max_live = mid
+        max_live = max(max_live, mid)
         cost += (2.0 ** min(mid, 200)) * (1 + ptr[best + 1] - ptr[best])
         for e in range(ptr[best], ptr[best + 1]):
             c = idx[e]
@@ -279,8 +278,7 @@ def _plan(valid):
                                         ret_slot, ret_side, ret_idx, np.inf, isolated)
                             used[s] = True
                             slot_m[j] = s
-                            if s + 1 > top:
-                                top = s + 1
+                            top = max(top, s + 1)
                         opt_slot[k_opt] = slot_m[j]
                         opt_j[k_opt] = j
                         opt_t[k_opt] = t
@@ -309,8 +307,7 @@ def _plan(valid):
                                         ret_slot, ret_side, ret_idx, np.inf, isolated)
                             used[s] = True
                             slot_t[t] = s
-                            if s + 1 > top:
-                                top = s + 1
+                            top = max(top, s + 1)
                         opt_slot[k_opt] = slot_t[t]
                         opt_j[k_opt] = j
                         opt_t[k_opt] = t
@@ -344,8 +341,7 @@ def plan_size(valid, n_count):
     mx = 0
     for k in range(layers.shape[0]):
         cells += (2.0 ** sizes[k, 0]) * n_count
-        if sizes[k, 1] > mx:
-            mx = sizes[k, 1]
+        mx = max(mx, sizes[k, 1])
     return cost * n_count, cells, mx
 
 
@@ -427,7 +423,7 @@ def _back(a_k, b_int, s_pre, D1, o0, o1, opt_slot, opt_w, null_w, b_cur, acc_opt
             starts = range(0, n_pre, 2 * bit)
             length = bit
         else:
-            starts = range(0, 1)
+            starts = range(1)
             length = n_pre
         acc = 0.0
         for st in starts:
@@ -479,8 +475,7 @@ def _normalise(x, n):
     """Scale ``x[:n]`` to a maximum of 1; returns the log of the factor (``-inf`` if 0)."""
     mx = 0.0
     for i in range(n):
-        if x[i] > mx:
-            mx = x[i]
+        mx = max(mx, x[i])
     if mx == 0.0:
         return _NEG_INF
     inv = 1.0 / mx
@@ -524,8 +519,7 @@ def net_marginals(logw, valid, log_miss, lg_count, marginals=True):
         if sizes[k, 1] > MAX_SLOTS:
             return beta, 0.0, 1
         cells += (1 << sizes[k, 0]) * D1
-        if sizes[k, 1] > max_int:
-            max_int = sizes[k, 1]
+        max_int = max(max_int, sizes[k, 1])
     if marginals and cells > MAX_CELLS:
         return beta, 0.0, 1
     # scaled linear weights: options of each layer scaled to a maximum of 1
@@ -537,8 +531,7 @@ def net_marginals(logw, valid, log_miss, lg_count, marginals=True):
         mx = ln
         for o in range(opt_ptr[k], opt_ptr[k + 1]):
             lw = logw[opt_j[o], opt_t[o]]
-            if lw > mx:
-                mx = lw
+            mx = max(mx, lw)
         if mx == _NEG_INF:
             mx = 0.0
         null_w[k] = math.exp(ln - mx)
@@ -594,8 +587,7 @@ def net_marginals(logw, valid, log_miss, lg_count, marginals=True):
     # total: sum_d alpha_L[d] g(d)
     gmax = _NEG_INF
     for d in range(D1):
-        if lg_count[d] > gmax:
-            gmax = lg_count[d]
+        gmax = max(gmax, lg_count[d])
     g = np.empty(D1)
     zt = 0.0
     a_L = alpha[off[L]:off[L + 1]]

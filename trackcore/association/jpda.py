@@ -37,18 +37,23 @@ import math
 import numba as nb
 import numpy as np
 
-from ..core.validation import (as_array, as_bool_matrix, as_positive, as_probabilities,
-                               as_probability)
+from ..core.validation import (
+    as_array,
+    as_bool_matrix,
+    as_positive,
+    as_probabilities,
+    as_probability,
+)
 from ._jpda_net import MAX_CELLS, MAX_COST, MAX_SLOTS, net_count, net_marginals
 
 __all__ = [
-    "jpda_marginals",
-    "feasible_events",
-    "feasible_event_count",
-    "feature_validation",
-    "permanent",
-    "jpda_clusters",
     "FEATURE_THRESHOLD",
+    "feasible_event_count",
+    "feasible_events",
+    "feature_validation",
+    "jpda_clusters",
+    "jpda_marginals",
+    "permanent",
 ]
 
 #: c_I of the paper (eq 5): a measurement validates a track only if rho >= c_I.
