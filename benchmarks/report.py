@@ -49,8 +49,11 @@ class Ratio:
 
     def __format__(self, spec):
         spec = spec or ".3g"
-        return (f"{format(self.median, spec)}x [{format(self.min, spec)}-"
-                f"{format(self.max, spec)}]")
+
+        def f(v):
+            return f"{v:,.0f}" if v >= 1000 else format(v, spec)
+
+        return f"{f(self.median)}x [{f(self.min)}-{f(self.max)}]"
 
     def verdict(self, target):
         if self.min >= target:
@@ -98,7 +101,9 @@ def target_rows(data):
     out = []
 
     def add(label, peer, value, target, kind="x"):
-        if kind == "x":
+        if kind == "none":
+            out.append((label, peer, value, "none", ""))
+        elif kind == "x":
             out.append((label, peer, value, f">= {target:g}x", value.verdict(target)))
         elif kind == "below":
             out.append((label, peer, value, f"< {target:g}",
@@ -128,7 +133,7 @@ def target_rows(data):
         add("SMC-PHD, 3 targets, 3000 particles, 10 clutter", "Stone Soup (likelihood corrected)",
             ratio(row(data, "smc_phd", "trackcore_kernel"), row(data, "smc_phd", "stonesoup")),
             50)
-        add("SMC-PHD mean cardinality difference", "|trackcore - Stone Soup|",
+        add("SMC-PHD mean cardinality difference", "abs(trackcore - Stone Soup)",
             abs(row(data, "smc_phd", "trackcore_kernel")["mean_cardinality_difference"]), 0.1,
             kind="below")
     if rows(data, "jpda_close"):
@@ -145,6 +150,12 @@ def target_rows(data):
                 "Stone Soup JPDAwithEHM2",
                 ratio(row(data, "jpda_close", "trackcore_kernels", T),
                       row(data, "jpda_close", "stonesoup_JPDAwithEHM2", T)), 10)
+        for T in (3, 5, 8):
+            add(f"JPDA marginals alone, {T} close targets (same hypotheses)",
+                "Stone Soup EHM2 (TrackClusterer + EHMTree)",
+                ratio(row(data, "jpda_close_marginals", "trackcore", T),
+                      row(data, "jpda_close_marginals", "stonesoup_EHM2_core", T)), None,
+                kind="none")
         for scene, text in (("chain", "chain of targets"), ("overlap", "fully overlapping")):
             s = series_ratios(data, f"jpda_{scene}", "stonesoup_JPDAwithEHM2")
             if s:
@@ -180,15 +191,20 @@ def _fmt(value):
 
 
 def readme_table(data) -> str:
+    import textwrap
+
     m = data["machine"]
-    lines = [
+    intro = (
         f"Measured in one run of `python -m benchmarks.run` at commit {m['commit']} "
-        f"({m['date']}) on the 2-core development machine, load average "
-        f"{m['load_average_1_5_15min'][0]:.1f} at the start and "
+        f"({m['date']}) on the 2-core development machine, shared with other jobs: load "
+        f"average {m['load_average_1_5_15min'][0]:.1f} at the start and "
         f"{m.get('load_average_at_end_1_5_15min', [float('nan')])[0]:.1f} at the end "
-        "(1-minute averages; process CPU time, see `benchmarks/README.md`).  Each ratio is "
-        "peer time over trackcore time: the median over repetitions, with the smallest "
-        "and largest repetition in brackets.",
+        "(1-minute averages; times are process CPU time, see `benchmarks/README.md`). Each "
+        "ratio is the peer's time over trackcore's: the median over interleaved "
+        "repetitions, with the smallest and largest repetition in brackets; a target is "
+        "met when the median reaches it.")
+    lines = [
+        textwrap.fill(intro, 95),
         "",
         "| workload | against | measured | target | verdict |",
         "|---|---|---|---|---|",
