@@ -91,11 +91,14 @@ def machine_description() -> dict:
 def record(workload: str, implementation: str, size, seconds_per_step: float, unit: str = "step",
            wall=None, **extra) -> dict:
     """One result row: ``seconds_per_<unit>`` is the median CPU time per unit of work;
-    ``wall`` (optional list of per-trial wall times per unit) is stored with its median."""
+    ``wall`` (optional list of per-trial wall times per unit) is stored with its median.
+    ``trials`` (in ``extra``) are stored in repetition order, so that the trials of two
+    implementations timed in the same repetitions pair up by index."""
     out = {"workload": workload, "implementation": implementation, "size": size,
-           "seconds_per_" + unit: seconds_per_step, "clock": "process CPU time"}
+           "seconds_per_" + unit: seconds_per_step, "clock": "process CPU time",
+           "trials_order": "repetition"}
     if wall is not None:
         out["wall_seconds_per_" + unit] = statistics.median(wall)
-        out["wall_trials"] = sorted(wall)
+        out["wall_trials"] = list(wall)
     out.update(extra)
     return out

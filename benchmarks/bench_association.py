@@ -1,12 +1,31 @@
 """Association benchmarks.
 
-JPDA: T = 3, 5, 8 close targets (on a line, 12 m apart, gates overlapping) and 10 clutter
-detections per scan.  trackcore (KF prediction, chi-square gating, Gaussian likelihoods and
-:func:`trackcore.association.jpda_marginals`, exact enumeration in numba) against Stone
-Soup's ``JPDA`` (brute-force product of the per-track hypotheses) and ``JPDAwithEHM2``
-(efficient hypothesis management), with the same ``PDAHypothesiser`` model
-(``prob_detect``, ``prob_gate``, ``clutter_spatial_density``).  All three must give the
-same association probabilities (max abs difference < 1e-9).
+JPDA, whole association step and marginals alone, trackcore against Stone Soup's ``JPDA``
+(brute-force product of the per-track hypotheses) and ``JPDAwithEHM2`` (efficient
+hypothesis management, Horridge & Maskell), with the same ``PDAHypothesiser`` model
+(``prob_detect``, ``prob_gate``, ``clutter_spatial_density``).  All must give the same
+association probabilities (max abs difference < 1e-9) before any time is recorded.
+
+Scenes (4-state CV, position measurements, one scan after a 1 s prediction):
+
+* ``close``: T = 3, 5, 8 targets on a line 12 m apart (gates overlapping their
+  neighbours'), 10 clutter detections in the box around them (the wave-1 scenes);
+* ``chain``: the same line of T = 2 ... 24 targets with T clutter detections (about 2T
+  measurements: 46 at T = 24);
+* ``overlap``: T = 2 ... 20 targets within 3 m of each other and T clutter detections
+  within 5 m of their centre: every gate holds every measurement (m = 2T; checked).
+
+Paths timed: ``trackcore`` -- the whole step with the public functions a user calls
+(``kf_predict``, ``mahalanobis_gate``, Gaussian likelihoods, :func:`jpda_marginals` with
+its automatic choice between enumeration and the hypothesis net; the targets are judged
+on this path); ``trackcore_kernels`` (close scenes) -- the same step the way trackcore's
+JPDA tracker runs it, calling the prediction and gating kernels directly; ``stonesoup_*`` --
+``associate`` of each data associator (hypothesis generation included).  Marginals alone:
+``jpda_marginals`` (automatic, and forced enumeration) against Stone Soup's
+``TrackClusterer`` + ``EHMTree`` on the already generated hypotheses.  Every repetition
+times trackcore and the peer back to back (interleaved); the ratio of each repetition is
+stored, so every ratio comes with its min-max over repetitions.  Stone Soup's EHM2 is not
+run on a scene larger than one where a single call took longer than ``EHM2_BUDGET_S``.
 
 Stone Soup weighs a missed detection by ``1 - P_D P_G`` and a detection by
 ``P_D N(z; z_hat, S) / lambda``: exactly trackcore's parametric JPDA with detection
@@ -24,10 +43,16 @@ from statistics import median
 
 import numpy as np
 
-from trackcore.association import (gate_threshold, hpda_log_rank_probabilities,
-                                   jpda_marginals, mahalanobis_gate)
+from trackcore.association import (
+    gate_threshold,
+    hpda_log_rank_probabilities,
+    jpda_marginals,
+    mahalanobis_gate,
+)
+from trackcore.association.gating import mahalanobis_gate_kernel
 from trackcore.core.logmath import logsumexp
 from trackcore.filters import kf_predict
+from trackcore.filters.kalman import cholesky_lower_kernel, kf_predict_kernel
 from trackcore.models import cv_process_noise, cv_transition, position_matrix
 
 from ._common import Stopwatch, record
@@ -37,10 +62,16 @@ N_CLUTTER = 10
 Q_PSD = 0.5
 R_VAR = 9.0
 P_POS, P_VEL = 25.0, 1.0
+CHAIN_SIZES = (2, 4, 6, 8, 10, 12, 16, 20, 24)
+OVERLAP_SIZES = (2, 3, 4, 5, 6, 7, 8, 10, 12, 14, 16, 18, 20)
+#: a scene larger than one where a single Stone Soup call took longer is not run
+EHM2_BUDGET_S = 8.0
 
 
-def jpda_scene(T: int, seed: int = 0):
-    """Priors (T, 4) in trackcore order, P0, the scan (m, 2) and the clutter density."""
+def jpda_scene(T: int, seed: int = 0, n_clutter: int = N_CLUTTER):
+    """Priors (T, 4) in trackcore order, P0, the scan (m, 2) and the clutter density:
+    T targets on a line ``SPACING`` apart, detected with probability ``PD``, and
+    ``n_clutter`` uniform clutter detections in the box 30 m around them."""
     rng = np.random.default_rng(seed + 100 * T)
     x0 = np.zeros((T, 4))
     x0[:, 0] = SPACING * np.arange(T)
@@ -52,14 +83,41 @@ def jpda_scene(T: int, seed: int = 0):
     det = det[rng.random(T) < PD]
     lo = np.array([-30.0, -30.0])
     hi = np.array([SPACING * (T - 1) + 30.0, 30.0])
-    clutter = lo + (hi - lo) * rng.random((N_CLUTTER, 2))
+    clutter = lo + (hi - lo) * rng.random((n_clutter, 2))
     Z = np.ascontiguousarray(np.vstack([det, clutter]))
-    lam = N_CLUTTER / float(np.prod(hi - lo))
+    lam = n_clutter / float(np.prod(hi - lo))
     return x0, P0, Z, lam
 
 
-def trackcore_jpda(x0, P0, Z, lam):
-    """The whole association step: predictions, gates, likelihoods, marginals."""
+def chain_scene(T: int, seed: int = 0):
+    """The line of T targets with T clutter detections (about 2T measurements)."""
+    return jpda_scene(T, seed + 7, n_clutter=T)
+
+
+def overlap_scene(T: int, seed: int = 0):
+    """T targets within 3 m of the origin, every one detected, and T clutter detections
+    within 5 m of their predicted centre: every gate holds all 2T measurements."""
+    rng = np.random.default_rng(seed + 1000 + T)
+    r = 3.0 * np.sqrt(rng.random(T))
+    phi = 2.0 * np.pi * rng.random(T)
+    x0 = np.zeros((T, 4))
+    x0[:, 0] = r * np.cos(phi)
+    x0[:, 1] = r * np.sin(phi)
+    x0[:, 2] = 1.0
+    P0 = np.diag([P_POS, P_POS, P_VEL, P_VEL])
+    truth = x0 @ cv_transition(1.0).T
+    det = truth[:, :2] + math.sqrt(R_VAR) * rng.standard_normal((T, 2))
+    rc = 5.0 * np.sqrt(rng.random(T))
+    pc = 2.0 * np.pi * rng.random(T)
+    clutter = np.column_stack([1.0 + rc * np.cos(pc), rc * np.sin(pc)])
+    Z = np.ascontiguousarray(np.vstack([det, clutter]))
+    lam = T / (math.pi * 25.0)
+    return x0, P0, Z, lam
+
+
+def trackcore_hypotheses(x0, P0, Z, lam):
+    """Predictions, gates and likelihoods with trackcore's public functions: ``(lik,
+    valid)`` in the form Stone Soup's PDAHypothesiser uses (``N / P_G``)."""
     F = cv_transition(1.0)
     Q = cv_process_noise(1.0, Q_PSD, kind="cwna")
     H = position_matrix()
@@ -75,15 +133,56 @@ def trackcore_jpda(x0, P0, Z, lam):
         mask, d2 = mahalanobis_gate(Z, H @ xp, S, gamma)
         valid[:, t] = mask
         lik[:, t] = np.exp(-0.5 * d2) / (2.0 * math.pi * math.sqrt(np.linalg.det(S)))
+    return lik / PG, valid
+
+
+def trackcore_hypotheses_kernels(x0, P0, Z, lam):
+    """:func:`trackcore_hypotheses` the way trackcore's JPDA tracker computes them: the
+    tracker validated its inputs once and calls the numba kernels directly."""
+    F = cv_transition(1.0)
+    Q = cv_process_noise(1.0, Q_PSD, kind="cwna")
+    H = position_matrix()
+    R = np.eye(2) * R_VAR
+    gamma = gate_threshold(PG, 2)
+    T = x0.shape[0]
+    m = Z.shape[0]
+    valid = np.zeros((m, T), dtype=bool)
+    lik = np.zeros((m, T))
+    xp = np.empty(4)
+    Pp = np.empty((4, 4))
+    L = np.zeros((2, 2))
+    gmask = np.zeros(m, np.bool_)
+    d2 = np.empty(m)
+    for t in range(T):
+        kf_predict_kernel(x0[t], P0, F, Q, xp, Pp)
+        S = H @ Pp @ H.T + R
+        cholesky_lower_kernel(S, L)
+        mahalanobis_gate_kernel(Z, H @ xp, L, gamma, -1, gmask, d2)
+        valid[:, t] = gmask
+        lik[gmask, t] = np.exp(-0.5 * d2[gmask]) / (2.0 * math.pi * L[0, 0] * L[1, 1])
+    return lik / PG, valid
+
+
+def trackcore_jpda_kernels(x0, P0, Z, lam):
+    """The whole association step as trackcore's JPDA tracker runs it."""
+    lik, valid = trackcore_hypotheses_kernels(x0, P0, Z, lam)
+    return jpda_marginals(lik, valid, PD * PG, lam)
+
+
+def trackcore_jpda(x0, P0, Z, lam, method="auto"):
+    """The whole association step: predictions, gates, likelihoods, marginals."""
+    lik, valid = trackcore_hypotheses(x0, P0, Z, lam)
     # Stone Soup's PDAHypothesiser model: P_D P_G for detection, N / P_G in the gate
-    return jpda_marginals(lik / PG, valid, PD * PG, lam)
+    return jpda_marginals(lik, valid, PD * PG, lam, method=method)
 
 
 def _stonesoup_setup(x0, P0, Z, lam):
     from stonesoup.hypothesiser.probability import PDAHypothesiser
     from stonesoup.models.measurement.linear import LinearGaussian
-    from stonesoup.models.transition.linear import (CombinedLinearGaussianTransitionModel,
-                                                    ConstantVelocity)
+    from stonesoup.models.transition.linear import (
+        CombinedLinearGaussianTransitionModel,
+        ConstantVelocity,
+    )
     from stonesoup.predictor.kalman import KalmanPredictor
     from stonesoup.types.detection import Detection
     from stonesoup.types.state import GaussianState
@@ -116,58 +215,170 @@ def _stonesoup_betas(assoc, tracks, dets):
     return out
 
 
-def bench_jpda(targets=(3, 5, 8)) -> list[dict]:
+def _ehm2_core(hypotheses):
+    """Stone Soup's EHM2 marginals on already generated hypotheses (clustering, tree,
+    posterior): the part of ``JPDAwithEHM2.associate`` that trackcore's net replaces."""
+    from stonesoup.dataassociator._ehm import TrackClusterer
+    from stonesoup.dataassociator.probability import JPDAwithEHM2
+
+    out = {}
+    for cluster in TrackClusterer(hypotheses).clustered_hypotheses:
+        out.update(JPDAwithEHM2._get_tree(cluster).get_posterior_hypotheses())
+    return out
+
+
+def _time_calls(fn, min_seconds=0.02, max_calls=2000):
+    """(CPU s per call, wall s per call, last result): ``fn`` repeated until at least
+    ``min_seconds`` of CPU time."""
+    res = fn()                       # warm-up (loads the compiled kernels)
+    n = 1
+    while True:
+        with Stopwatch() as sw:
+            for _ in range(n):
+                res = fn()
+        if sw.cpu >= min_seconds or n >= max_calls:
+            return sw.cpu / n, sw.wall / n, res
+        n = min(max_calls, max(2 * n, int(n * 1.5 * min_seconds / max(sw.cpu, 1e-6))))
+
+
+def _ratio_summary(ours, peer):
+    """Per-repetition ratios peer/ours (paired, interleaved) with median, min and max."""
+    r = [p / o for o, p in zip(ours, peer)]
+    return {"median": median(r), "min": min(r), "max": max(r), "per_repetition": r}
+
+
+def _check(name, beta, ref, what):
+    d = float(np.max(np.abs(beta - ref)))
+    if not d < 1e-9:
+        raise AssertionError(f"JPDA {what}: trackcore and {name} marginals differ by {d:g}")
+    return d
+
+
+def _scene_rows(scene, T, x0, P0, Z, lam, peers, reps, marginals_only=False):
+    """Interleaved timing of trackcore and the peers on one scan; rows for each."""
     from stonesoup.dataassociator.probability import JPDA, JPDAwithEHM2
+
+    hyp, tracks, dets, t1 = _stonesoup_setup(x0, P0, Z, lam)
+    lik, valid = trackcore_hypotheses(x0, P0, Z, lam)
+    if scene == "overlap" and not valid.all():
+        raise AssertionError(f"overlap scene T={T}: not every gate holds every measurement")
+    beta, n_events = trackcore_jpda(x0, P0, Z, lam)
+    enum_product = float(np.prod(1.0 + valid.sum(axis=0)))
+    impls = {"stonesoup_JPDA": JPDA(hyp), "stonesoup_JPDAwithEHM2": JPDAwithEHM2(hyp)}
+    times = {"trackcore": [], **{k: [] for k in peers}}
+    if marginals_only:
+        times["trackcore_kernels"] = []
+    walls = {k: [] for k in times}
+    diffs = {}
+    m_times = {"trackcore": [], "stonesoup_EHM2_core": []}
+    hypotheses = impls["stonesoup_JPDAwithEHM2"].generate_hypotheses(set(tracks), set(dets), t1) \
+        if marginals_only else None
+    for rep in range(reps):
+        cpu, wall, (b, _) = _time_calls(lambda: trackcore_jpda(x0, P0, Z, lam))
+        times["trackcore"].append(cpu)
+        walls["trackcore"].append(wall)
+        if marginals_only:
+            cpu, wall, (bk, _) = _time_calls(lambda: trackcore_jpda_kernels(x0, P0, Z, lam))
+            times["trackcore_kernels"].append(cpu)
+            walls["trackcore_kernels"].append(wall)
+            if not np.max(np.abs(bk - b)) < 1e-12:
+                raise AssertionError(f"JPDA {scene} T={T}: kernel path differs")
+        for name in peers:
+            if name == "stonesoup_JPDA" and T >= 8 and rep > 0:
+                times[name].append(times[name][0])   # brute force: timed once at T = 8
+                walls[name].append(walls[name][0])
+                continue
+            with Stopwatch() as sw:
+                res = impls[name].associate(set(tracks), set(dets), t1)
+            times[name].append(sw.cpu)
+            walls[name].append(sw.wall)
+            diffs[name] = _check(name, b, _stonesoup_betas(res, tracks, dets), f"{scene} T={T}")
+        if marginals_only:
+            cpu, _, _ = _time_calls(lambda: jpda_marginals(lik, valid, PD * PG, lam))
+            m_times["trackcore"].append(cpu)
+            with Stopwatch() as sw:
+                post = _ehm2_core(hypotheses)
+            m_times["stonesoup_EHM2_core"].append(sw.cpu)
+    common = {"scene": scene, "targets": T, "measurements": int(Z.shape[0]),
+              "feasible_events": int(n_events), "brute_force_product": enum_product,
+              "max_abs_diff": diffs, "method": "enumerate" if enum_product <= 100 else "net"}
+    rows = [record(f"jpda_{scene}", "trackcore", T, median(times["trackcore"]), unit="scan",
+                   trials=times["trackcore"], wall=walls["trackcore"], **common)]
+    if marginals_only:
+        rows.append(record(f"jpda_{scene}", "trackcore_kernels", T,
+                           median(times["trackcore_kernels"]), unit="scan",
+                           trials=times["trackcore_kernels"], wall=walls["trackcore_kernels"],
+                           **common))
+    for name in peers:
+        extra = {}
+        if marginals_only:
+            extra["ratio_to_trackcore_kernels"] = _ratio_summary(times["trackcore_kernels"],
+                                                                 times[name])
+        rows.append(record(f"jpda_{scene}", name, T, median(times[name]), unit="scan",
+                           trials=times[name], wall=walls[name],
+                           ratio_to_trackcore=_ratio_summary(times["trackcore"], times[name]),
+                           **extra, **common))
+    if marginals_only:
+        # the enumeration alone on the same matrices, for the record
+        cpu_enum, _, (b_enum, _) = _time_calls(
+            lambda: jpda_marginals(lik, valid, PD * PG, lam, method="enumerate"))
+        ref = {}
+        for t, track in enumerate(tracks):
+            for h, p in post[track]:
+                ref[(t, -1 if not h else dets.index(h.measurement))] = float(p)
+        core = np.zeros_like(beta)
+        for (t, j), p in ref.items():
+            core[j + 1, t] = p
+        d = _check("Stone Soup EHMTree", beta, core, f"{scene} T={T} (marginals only)")
+        rows.append(record(f"jpda_{scene}_marginals", "trackcore", T, median(m_times["trackcore"]),
+                           unit="scan", trials=m_times["trackcore"],
+                           enumeration_seconds=cpu_enum, **common))
+        rows.append(record(f"jpda_{scene}_marginals", "stonesoup_EHM2_core", T,
+                           median(m_times["stonesoup_EHM2_core"]), unit="scan",
+                           trials=m_times["stonesoup_EHM2_core"], max_abs_diff_core=d,
+                           ratio_to_trackcore=_ratio_summary(m_times["trackcore"],
+                                                             m_times["stonesoup_EHM2_core"]),
+                           **common))
+        if not np.max(np.abs(b_enum - beta)) < 1e-12:
+            raise AssertionError(f"JPDA {scene} T={T}: enumeration and net differ")
+    return rows
+
+
+def bench_jpda(targets=(3, 5, 8), chain=CHAIN_SIZES, overlap=OVERLAP_SIZES) -> list[dict]:
+    """The close-target scenes (whole step against JPDA and EHM2, and marginals alone
+    against EHM2's core), then the chain and fully overlapping scaling series."""
     rows = []
     trackcore_jpda(*jpda_scene(3))  # load the compiled kernels
+    trackcore_jpda(*overlap_scene(4))
     for T in targets:
-        x0, P0, Z, lam = jpda_scene(T)
-        hyp, tracks, dets, t1 = _stonesoup_setup(x0, P0, Z, lam)
-        impls = {"stonesoup_JPDA": JPDA(hyp), "stonesoup_JPDAwithEHM2": JPDAwithEHM2(hyp)}
-        reps = 3 if T >= 8 else 5
-        times = {"trackcore": [], **{k: [] for k in impls}}
-        walls = {k: [] for k in times}
-        betas = {}
-        for rep in range(reps):   # interleaved: every implementation sees the same load
-            n_inner = 20
-            with Stopwatch() as sw:
-                for _ in range(n_inner):
-                    beta, n_events = trackcore_jpda(x0, P0, Z, lam)
-            times["trackcore"].append(sw.cpu / n_inner)
-            walls["trackcore"].append(sw.wall / n_inner)
-            betas["trackcore"] = beta
-            for name, assoc in impls.items():
-                if name == "stonesoup_JPDA" and T >= 8 and rep > 0:
-                    continue  # brute force takes tens of seconds per scan: timed once
-                with Stopwatch() as sw:
-                    res = assoc.associate(set(tracks), set(dets), t1)
-                times[name].append(sw.cpu)
-                walls[name].append(sw.wall)
-                betas[name] = _stonesoup_betas(res, tracks, dets)
-        diffs = {k: float(np.max(np.abs(betas[k] - betas["trackcore"]))) for k in impls}
-        for k, d in diffs.items():
-            if not d < 1e-9:
-                raise AssertionError(f"JPDA T={T}: trackcore and {k} marginals differ by {d:g}")
-        # size of Stone Soup's brute-force product: prod_t (1 + gated measurements of t)
-        gated = [int(np.count_nonzero(betas["trackcore"][1:, t] > 0)) for t in range(T)]
-        product = int(np.prod([1 + g for g in gated]))
-        # the enumeration alone (same validation matrix, unit likelihoods), 5 x 10 calls
-        t_marg = []
-        valid = betas["trackcore"][1:] > 0
-        lik = np.where(valid, 1.0, 0.0)
-        for _ in range(5):
-            with Stopwatch() as sw:
-                for _ in range(10):
-                    jpda_marginals(lik, valid, PD * PG, lam)
-            t_marg.append(sw.cpu / 10)
-        common = {"targets": T, "measurements": int(Z.shape[0]), "feasible_events": int(n_events),
-                  "brute_force_product": product, "max_abs_diff": diffs}
-        rows.append(record("jpda_scan", "trackcore", T, median(times["trackcore"]), unit="scan",
-                           trials=sorted(times["trackcore"]), wall=walls["trackcore"],
-                           marginals_only_seconds=median(t_marg), **common))
-        for name in impls:
-            rows.append(record("jpda_scan", name, T, median(times[name]), unit="scan",
-                               trials=sorted(times[name]), wall=walls[name], **common))
+        rows += _scene_rows("close", T, *jpda_scene(T),
+                            peers=("stonesoup_JPDA", "stonesoup_JPDAwithEHM2"), reps=5,
+                            marginals_only=True)
+    for scene, sizes, make in (("chain", chain, chain_scene), ("overlap", overlap, overlap_scene)):
+        skip_peer = False
+        for T in sizes:
+            x0, P0, Z, lam = make(T)
+            if skip_peer:
+                lik, valid = trackcore_hypotheses(x0, P0, Z, lam)
+                cpu = []
+                wall = []
+                for _ in range(3):
+                    c, w, (b, n) = _time_calls(lambda: trackcore_jpda(x0, P0, Z, lam), 0.05, 50)
+                    cpu.append(c)
+                    wall.append(w)
+                rows.append(record(f"jpda_{scene}", "trackcore", T, median(cpu), unit="scan",
+                                   trials=cpu, wall=wall, scene=scene, targets=T,
+                                   measurements=int(Z.shape[0]), feasible_events=int(n),
+                                   brute_force_product=float(np.prod(1.0 + valid.sum(axis=0))),
+                                   method="net", peer_not_run=(
+                                       f"a smaller scene took Stone Soup's EHM2 more than "
+                                       f"{EHM2_BUDGET_S:g} s per call")))
+                continue
+            new = _scene_rows(scene, T, x0, P0, Z, lam, peers=("stonesoup_JPDAwithEHM2",),
+                              reps=3)
+            rows += new
+            if max(new[1]["trials"]) > EHM2_BUDGET_S:
+                skip_peer = True
     return rows
 
 

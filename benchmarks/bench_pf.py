@@ -23,8 +23,8 @@ from statistics import median
 import numba as nb
 import numpy as np
 
-from trackcore.filters import (MODEL_RANGE_BEARING, bootstrap_step, bootstrap_step_kernel,
-                               noise_factor)
+from trackcore.filters import bootstrap_step
+from trackcore.filters.particle import MODEL_RANGE_BEARING, bootstrap_step_kernel, noise_factor
 from trackcore.models import cv_process_noise, cv_transition, range_bearing
 
 from ._common import Stopwatch, median_time, record
@@ -289,7 +289,7 @@ def bench_pf(sizes=(1000, 10000, 100000), repeats=5) -> list[dict]:
                 extra = {"floor": fl, "floor_ns_per_particle": fl["ns_per_particle"],
                          "fraction_of_floor": fl["ns_per_particle"] / (t / N * 1e9)}
             out.append(record("bootstrap_pf", name, N, t, ns_per_particle=t / N * 1e9,
-                              trials=sorted(cpu[name]), wall=wall[name], **common, **extra))
+                              trials=list(cpu[name]), wall=wall[name], **common, **extra))
     tp = two_core_throughput()
     out.append(record("bootstrap_pf_two_processes", "trackcore_kernel", tp["particles"],
                       tp["cpu_seconds"] / tp["steps"], **tp))

@@ -241,7 +241,7 @@ def bench_phd(repeats: int = 5, seed: int = 0) -> list[dict]:
     out = []
     for name in names:
         t = median(cpu[name])
-        out.append(record("smc_phd", name, n, t, unit="step", trials=sorted(cpu[name]),
+        out.append(record("smc_phd", name, n, t, unit="step", trials=list(cpu[name]),
                           wall=wall[name], speedup_vs_stonesoup=median(cpu["stonesoup"]) / t,
                           speedup_vs_stonesoup_as_shipped=median(cpu["stonesoup_as_shipped"]) / t,
                           mean_cardinality_per_scan=[float(c) for c in per_scan[name]],

@@ -4,7 +4,7 @@
     python -m benchmarks.run kf imm     # a subset (other rows kept; each row records when
                                         # and at which commit it was measured)
 
-Workloads: kf, imm, pf, phd, jpda, hpda, roofline.
+Workloads: kf, imm, pf, phd, jpda, hpda, marcum, roofline.
 
 Each workload runs trackcore and its peer (filterpy or Stone Soup) on the same inputs in
 the same process, checks that they agree, and records the median process CPU time per step
@@ -30,7 +30,7 @@ RESULTS = Path(__file__).resolve().parent / "results" / "benchmarks.json"
 
 
 def _workloads():
-    from . import bench_association, bench_filters, bench_pf, bench_phd, roofline
+    from . import bench_association, bench_filters, bench_marcum, bench_pf, bench_phd, roofline
     items = {
         "kf": bench_filters.bench_kf,
         "imm": bench_filters.bench_imm,
@@ -38,6 +38,7 @@ def _workloads():
         "phd": bench_phd.bench_phd,
     }
     items.update(bench_association.WORKLOADS)
+    items.update(bench_marcum.WORKLOADS)
     return items, roofline.run
 
 

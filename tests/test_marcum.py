@@ -18,12 +18,21 @@ from hypothesis import strategies as st
 from scipy import integrate, special
 from scipy.stats import ncx2
 
-from trackcore.detection import (log_marcum_detection_probability, log_marcum_miss_probability,
-                                 log_marcum_q1, log_marcum_q1_complement, log_marcum_q1_pair_kernel,
-                                 marcum_detection_probability, marcum_miss_probability, marcum_q1,
-                                 marcum_q1_complement, square_law_threshold,
-                                 swerling1_detection_probability, swerling1_miss_probability,
-                                 rician_log_likelihood_ratio)
+from trackcore.detection import (
+    log_marcum_detection_probability,
+    log_marcum_miss_probability,
+    log_marcum_q1,
+    log_marcum_q1_complement,
+    marcum_detection_probability,
+    marcum_miss_probability,
+    marcum_q1,
+    marcum_q1_complement,
+    rician_log_likelihood_ratio,
+    square_law_threshold,
+    swerling1_detection_probability,
+    swerling1_miss_probability,
+)
+from trackcore.detection.marcum import log_marcum_q1_pair_kernel
 
 
 # ----------------------------------------------------------------------------- reference
@@ -91,8 +100,8 @@ def test_marcum_q1_matches_reference_with_a_b(reference_grid):
     assert np.max(np.abs(marcum_q1_complement(a, b) / qc - 1.0)) < 1e-9
 
 
-def test_spec_sample_values():
-    # spec 003 section 3, P_fa = 1e-6
+def test_tabulated_sample_values():
+    # the usual P_D table of a square-law detector at P_fa = 1e-6
     pd = marcum_detection_probability(10.0 ** (np.array([5.0, 10.0, 13.0, 15.0]) / 10.0), 1e-6)
     np.testing.assert_allclose(pd, [4.585e-3, 0.24805, 0.87444, 0.997225], rtol=2e-4)
     miss = marcum_miss_probability(100.0, 1e-6)
@@ -101,12 +110,12 @@ def test_spec_sample_values():
 
 
 def _rician_tail(a, b):
-    f = lambda x: x * np.exp(-0.5 * (x - a) ** 2) * special.i0e(a * x)  # noqa: E731
+    f = lambda x: x * np.exp(-0.5 * (x - a) ** 2) * special.i0e(a * x)
     return integrate.quad(f, b, np.inf, epsabs=0.0, epsrel=1e-13, limit=200)[0]
 
 
 def _rician_head(a, b):
-    f = lambda x: x * np.exp(-0.5 * (x - a) ** 2) * special.i0e(a * x)  # noqa: E731
+    f = lambda x: x * np.exp(-0.5 * (x - a) ** 2) * special.i0e(a * x)
     return integrate.quad(f, 0.0, b, epsabs=0.0, epsrel=1e-13, limit=200)[0]
 
 
@@ -174,7 +183,7 @@ def test_monotone(a, b, d):
 def test_swerling1_closed_form_by_quadrature():
     for S in (0.5, 3.0, 10.0, 50.0):
         for pfa in (1e-2, 1e-6):
-            f = lambda s: marcum_detection_probability(s, pfa) * np.exp(-s / S) / S  # noqa: E731
+            f = lambda s: marcum_detection_probability(s, pfa) * np.exp(-s / S) / S
             val = integrate.quad(f, 0.0, np.inf, epsabs=0.0, epsrel=1e-11, limit=200)[0]
             assert val == pytest.approx(swerling1_detection_probability(S, pfa), rel=1e-9)
     assert swerling1_miss_probability(1e6, 1e-6) == pytest.approx(
@@ -246,7 +255,7 @@ def test_rician_likelihood_ratio():
     np.testing.assert_allclose(rician_log_likelihood_ratio(zeta[:4], S), want, rtol=1e-13)
     assert np.isfinite(rician_log_likelihood_ratio(2000.0, S))   # no overflow
     # a likelihood ratio averages to 1 under the noise density e^{-zeta}
-    f = lambda z: np.exp(rician_log_likelihood_ratio(z, S) - z)  # noqa: E731
+    f = lambda z: np.exp(rician_log_likelihood_ratio(z, S) - z)
     assert integrate.quad(f, 0.0, np.inf)[0] == pytest.approx(1.0, rel=1e-10)
     # its tail above tau integrates to P_D (the p_1 mass above the threshold)
     tau = 10 ** 0.5
