@@ -130,6 +130,17 @@ def test_filter_config_validates_every_field():
         SprtAcmFilterConfig(target_model="ukf")
     with pytest.raises(TypeError, match="target_model"):
         SprtAcmFilterConfig(target_model=1)
+    for bad in (0.0, -0.2, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="beta_std_factor_a1"):
+            SprtAcmFilterConfig(beta_std_factor_a1=bad)
+    for bad in (-0.1, 1.5, float("nan")):
+        with pytest.raises(ValueError, match="mu_release"):
+            SprtAcmFilterConfig(mu_release=bad)
+    with pytest.raises(TypeError, match="mu_release"):
+        SprtAcmFilterConfig(mu_release="1")
+    with pytest.raises(TypeError, match="beta_std_factor_a1"):
+        SprtAcmFilterConfig(beta_std_factor_a1=True)
+    assert SprtAcmFilterConfig(mu_release=0.0).manoeuvre_probability_at_release == 0.0
     with pytest.raises(TypeError, match="unknown"):
         cfg.replace(sigma=1.0)
     with pytest.raises(dataclasses.FrozenInstanceError):
@@ -166,10 +177,57 @@ def test_scenario_nan_end_time_is_a_clear_error():
 
 
 def test_no_kernel_is_public():
-    for mod in (sprt_mod, mp_mod, scen_mod, disc_mod):
+    import trackcore.detection
+    import trackcore.models
+    import trackcore.scenarios
+    import trackcore.trackers
+    mods = (sprt_mod, mp_mod, scen_mod, disc_mod)
+    for mod in mods:
         assert not [n for n in mod.__all__ if n.endswith("_kernel")], mod.__name__
+    # nor does a package re-export a kernel of these modules
+    kernels = {n for mod in mods for n in vars(mod) if n.endswith("_kernel")
+               and getattr(vars(mod)[n], "__module__", "") == mod.__name__}
+    assert kernels >= {"sprt_decide_kernel", "modified_polar_f_kernel",
+                       "modified_polar_F_kernel", "sprt_acm_discriminate_kernel"}
+    for pkg in (trackcore.detection, trackcore.models, trackcore.scenarios, trackcore.trackers):
+        assert not kernels & set(pkg.__all__), pkg.__name__
     # the kernels are still there for the package, imported from their modules
     assert callable(sprt_mod.sprt_decide_kernel) and callable(mp_mod.modified_polar_f_kernel)
+
+
+def test_scenario_that_passes_too_close_is_refused_by_name():
+    # S3 with alpha 45, lead 20 brings the pursuer within about 5 m of the target: the
+    # range noise would give non-positive ranges, so the scenario is refused, not the data
+    sc = sprt_acm_scenario(3, alpha_deg=45.0, lead_deg=20.0)
+    with pytest.raises(ValueError, match="scenario S3: the target comes within"):
+        sprt_acm_monte_carlo(sc, 3, 0)
+    with pytest.raises(ValueError, match="t_end"):
+        sprt_acm_measurements(sc, np.random.default_rng(0))
+    # ending the run before the close pass is accepted
+    ok = sprt_acm_monte_carlo(sprt_acm_scenario(3, alpha_deg=45.0, lead_deg=20.0,
+                                                t_end=75.0), 3, 0)
+    assert ok.ok.all() and np.all(np.isfinite(ok.llr))
+    # a decoy whose apparent range shrinks to the pursuer is refused as well
+    with pytest.raises(ValueError, match="decoy"):
+        sprt_acm_monte_carlo(sprt_acm_scenario(3, decoy_speed=-20.0), 2, 0)
+
+
+def test_a1_only_prior_and_imm_release_cue():
+    sc = sprt_acm_scenario(2)
+    base = sprt_acm_monte_carlo(sc, 20, 7)
+    a1 = sprt_acm_monte_carlo(sc, 20, 7, config=sprt_acm_filter_config(
+        sc, beta_std_factor_a1=0.2))
+    # b0 (track b) is untouched, a1 (track a) changes
+    np.testing.assert_array_equal(a1.lam[..., 1], base.lam[..., 1])
+    np.testing.assert_array_equal(a1.lam[..., [0, 3]], base.lam[..., [0, 3]])
+    assert not np.allclose(a1.lam[:, 2:, 2], base.lam[:, 2:, 2])
+    same = sprt_acm_monte_carlo(sc, 20, 7, config=sprt_acm_filter_config(
+        sc, beta_std_factor_a1=2.0))
+    np.testing.assert_array_equal(same.llr, base.llr)
+    cue = sprt_acm_filter_config(sc, target_model="imm", mu_release=1.0)
+    assert cue.manoeuvre_probability_at_release == 1.0
+    res = sprt_acm_monte_carlo(sc, 20, 7, config=cue)
+    assert np.all(res.mu[:, 0, :] == 1.0) and np.all(res.mu[:, 1:, :] < 1.0)
 
 
 def test_first_crossing_scan_interpolates():
@@ -198,9 +256,26 @@ def test_gaussian_llr_walks_are_true_likelihood_ratios():
     np.testing.assert_allclose(W[:, 0].mean(), -0.25, atol=0.01)
     W1 = gaussian_llr_walks(0.5, 1000, 2, np.random.default_rng(1), h1_true=True)
     assert W1[:, 0].mean() > 0
-    # Wald's P_F bounds the error of a true LLR walk (the overshoot only lowers it)
-    d, _ = sprt_decide(gaussian_llr_walks(1.0, 100_000, 200, rng), -2.0, 2.0)
+    # Ville's inequality: a true LLR ever reaches gamma with probability <= e^-gamma, so
+    # the SPRT errs with probability <= (1 - P_M) e^-gamma1 (Wald's bound); here both
+    # are far from the MC error (std ~ 0.001)
+    W2 = gaussian_llr_walks(1.0, 100_000, 200, rng)
+    d, _ = sprt_decide(W2, -2.0, 2.0)
+    assert np.mean((W2 >= 2.0).any(axis=1)) < math.exp(-2.0) - 0.005
+    assert np.mean(d == 1) <= np.mean((W2 >= 2.0).any(axis=1))
     assert np.mean(d == 1) < wald_error_probabilities(-2.0, 2.0)[0]
+    # per-scan variances: a non-stationary true LLR; the scalar form is its special case
+    v = np.array([0.2, 0.5, 1.0, 2.0])
+    Wv = gaussian_llr_walks(v, 200_000, 4, np.random.default_rng(4))
+    np.testing.assert_allclose(np.diff(np.r_[0.0, Wv.mean(axis=0)]), -v / 2, atol=0.01)
+    np.testing.assert_allclose(np.exp(Wv).mean(axis=0), 1.0, atol=0.05)
+    np.testing.assert_array_equal(
+        gaussian_llr_walks(0.5, 10, 3, np.random.default_rng(2)),
+        gaussian_llr_walks(np.full(3, 0.5), 10, 3, np.random.default_rng(2)))
+    with pytest.raises(ValueError, match="n_scans"):
+        gaussian_llr_walks(v, 10, 3, rng)
+    with pytest.raises(ValueError, match="var"):
+        gaussian_llr_walks(np.array([1.0, 0.0, 1.0]), 10, 3, rng)
     for bad in (dict(var=0.0), dict(var=float("nan"))):
         with pytest.raises(ValueError, match="var"):
             gaussian_llr_walks(bad["var"], 10, 2, rng)

@@ -21,17 +21,24 @@ def run_data():
 
 
 def _target_modes_reference(cfg, T):
-    """The post-release target filter as (list of mode PSDs per scan k, PI, mu0)."""
+    """The post-release target filter as (list of mode PSDs per scan k, PI, mu0).
+
+    Written from the documented behaviour, not from the kernel: the boost raises the
+    noise of every prediction that *starts* less than ``boost_time`` after the release
+    (the prediction to post-release index k starts at (k - 1) T after it); the IMM starts
+    from ``mu_release`` or, if unset, from the stationary law of its mode chain.
+    """
     q_cv = cfg.sigma_v**2
     q_m = cfg.manoeuvre_accel**2 * T
     if cfg.target_model == "cv":
         return (lambda k: [q_cv]), None, None
     if cfg.target_model == "boost":
-        n_boost = math.ceil(cfg.boost_time / T - 1e-9)
-        return (lambda k: [q_m if k <= n_boost else q_cv]), None, None
+        return (lambda k: [q_m if (k - 1) * T < cfg.boost_time else q_cv]), None, None
     p1, p2 = cfg.p_stay_cv, cfg.p_stay_manoeuvre
     PI = np.array([[p1, 1 - p1], [1 - p2, p2]])
-    m = (1 - p1) / ((1 - p1) + (1 - p2))
+    w, v = np.linalg.eig(PI.T)
+    stationary = np.real(v[:, np.argmin(np.abs(w - 1))])
+    m = float(stationary[1] / stationary.sum()) if cfg.mu_release is None else cfg.mu_release
     return (lambda k: [q_cv, q_m]), PI, np.array([1 - m, m])
 
 
@@ -98,8 +105,11 @@ def reference(z, truth, T, cfg):
             nis[k, col] = v
         for col, zz in ((1, z.z_b[k]), (2, z.z_a[k])):
             if k == 0:
+                f = cfg.beta_std_factor
+                if col == 2 and cfg.beta_std_factor_a1 is not None:   # a1's own prior
+                    f = cfg.beta_std_factor_a1
                 acm[col] = (np.array([zz[1], 1 / zz[0]]),
-                            np.diag([cfg.sigma_theta**2, (cfg.beta_std_factor / zz[0])**2]))
+                            np.diag([cfg.sigma_theta**2, (f / zz[0])**2]))
                 continue
             x, P = acm[col]
             ub = own[j, :2] - own[j - 1, :2]
@@ -117,7 +127,14 @@ def reference(z, truth, T, cfg):
 @pytest.mark.parametrize("changes", [dict(beta_std_factor=2.0), dict(beta_std_factor=0.5),
                                      dict(target_model="boost"),
                                      dict(target_model="boost", boost_time=5.0),
-                                     dict(target_model="imm", beta_std_factor=0.2)])
+                                     dict(target_model="boost", boost_time=4.0),
+                                     dict(target_model="boost", boost_time=0.5),
+                                     dict(target_model="imm", beta_std_factor=0.2),
+                                     dict(target_model="imm", mu_release=1.0),
+                                     dict(target_model="imm", mu_release=0.0,
+                                          p_stay_cv=0.8, p_stay_manoeuvre=0.6),
+                                     dict(beta_std_factor_a1=0.2),
+                                     dict(beta_std_factor=0.2, beta_std_factor_a1=3.0)])
 def test_matches_foundation_route(run_data, changes):
     sc, truth, z = run_data
     cfg = SprtAcmFilterConfig(**changes)

@@ -343,24 +343,35 @@ def first_crossing_scan(path, level):
 def gaussian_llr_walks(var, n_runs, n_scans, rng, h1_true=False):
     """Cumulative log-likelihood ratios of a test that *is* a true likelihood ratio.
 
-    The increments are i.i.d. ``N(-var/2, var)`` under H0 (``N(+var/2, var)`` with
-    ``h1_true``): the exact LLR of one Gaussian datum whose mean shifts by
-    ``sqrt(var)`` standard deviations between the hypotheses.  For such a walk
-    ``E[exp(Lambda(k)) | H0] = 1`` at every scan and Wald's ``h = 1``; it is the
-    reference against which the book measures the calibration of an approximate
-    statistic.  Returns an ``(n_runs, n_scans)`` array.
+    The increment of scan ``k`` is ``N(-v_k/2, v_k)`` under H0 (``N(+v_k/2, v_k)`` with
+    ``h1_true``): the exact LLR of one Gaussian datum whose mean shifts by ``sqrt(v_k)``
+    standard deviations between the hypotheses.  ``var`` is one variance for every scan
+    (i.i.d. increments) or an array of ``n_scans`` per-scan variances (a non-stationary
+    walk, e.g. one whose mean increments follow another statistic's).  For such a walk
+    ``E[exp(Lambda(k)) | H0] = 1`` at every scan; it is the reference against which the
+    book measures the calibration of an approximate statistic.  Returns an
+    ``(n_runs, n_scans)`` array.
     """
-    v = as_positive(var, "var")
     n = as_count(n_runs, "n_runs")
     K = as_count(n_scans, "n_scans")
+    if np.ndim(var) == 0:
+        v = np.full(K, as_positive(var, "var"))
+    else:
+        v = as_array(var, "var", ndim=1)
+        if v.size != K:
+            raise ValueError(f"var must be a number or hold n_scans = {K} variances, "
+                             f"got {v.size}")
+        if not np.all(v > 0):
+            raise ValueError("var must be > 0 at every scan")
     g = as_rng(rng)
     if not isinstance(h1_true, (bool, np.bool_)):
         raise TypeError(f"h1_true must be a bool, got {type(h1_true).__name__}")
     mean = 0.5 * v if h1_true else -0.5 * v
     with np.errstate(over="ignore", invalid="ignore"):
-        out = np.cumsum(g.normal(mean, math.sqrt(v), size=(n, K)), axis=1)
+        out = np.cumsum(mean + np.sqrt(v) * g.standard_normal((n, K)), axis=1)
     if not np.all(np.isfinite(out)):
-        raise ValueError(f"var = {v:g} is too large: the cumulative sums overflow")
+        raise ValueError(f"var (up to {v.max() if v.size else 0:g}) is too large: the "
+                         "cumulative sums overflow")
     return out
 
 

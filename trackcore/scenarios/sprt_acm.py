@@ -278,6 +278,29 @@ def _acm_noiseless(scenario, truth, acm):
                      rdot + scenario.decoy_speed], axis=1)
 
 
+_MIN_RANGE_SIGMAS = 8.0
+"""Smallest true range (target) or apparent range (decoy) accepted, in range-noise standard
+deviations: below it a Gaussian range error could make a measured range non-positive
+(probability below 1e-15 per measurement at 8 sigma)."""
+
+
+def _check_ranges(scenario, truth, rel, z_acm):
+    """Refuse a scenario that brings a track so close to the pursuer that the range noise
+    could make a measured range <= 0 (the filters' measurement model no longer holds)."""
+    limit = _MIN_RANGE_SIGMAS * scenario.sigma_r
+    r_t = np.hypot(rel[:, 0], rel[:, 1])
+    for name, r, times in (("the target", r_t, truth.times),
+                           ("the decoy (apparent range)", z_acm[:, 0],
+                            truth.times[truth.n_pre:])):
+        i = int(np.argmin(r))
+        if not r[i] >= limit:
+            raise ValueError(
+                f"scenario {scenario.name}: {name} comes within {r[i]:.1f} m of the pursuer "
+                f"at t = {times[i]:g} s, less than {_MIN_RANGE_SIGMAS:g} sigma_r = {limit:g} m, "
+                "where the range noise can make a measured range <= 0; change the geometry "
+                "or end the run earlier (t_end)")
+
+
 def sprt_acm_measurements(scenario, rng, truth=None, h1_true=False):
     """Simulate one run's measurements.
 
@@ -286,7 +309,9 @@ def sprt_acm_measurements(scenario, rng, truth=None, h1_true=False):
     ``h1_true`` swaps the tracks (a = ACM, b = target).  With
     ``target_accel_psd > 0`` the target truth is the nominal trajectory plus a
     random deviation that follows the filter's own CWNA model (eq 12) after the
-    release (used to check filter consistency).
+    release (used to check filter consistency).  A scenario that brings the target,
+    or the decoy's apparent range, within eight ``sigma_r`` of the
+    pursuer raises ``ValueError`` naming the scenario.
     """
     if not isinstance(scenario, SprtAcmScenario):
         raise TypeError(f"scenario must be an SprtAcmScenario, got {type(scenario).__name__}")
@@ -309,15 +334,12 @@ def sprt_acm_measurements(scenario, rng, truth=None, h1_true=False):
             dev[i] = F @ dev[i - 1] + w[i - n0 - 1]
         target = target + dev
     rel = target - truth.own
-    hit = np.hypot(rel[:, 0], rel[:, 1]) == 0.0
-    if np.any(hit):
-        raise ValueError(f"the scenario puts the target on the pursuer at t = "
-                         f"{truth.times[np.argmax(hit)]:g} s (zero range)")
-    z_t = range_bearing_doppler(rel)
+    z_t = range_bearing_doppler(rel) if np.all(np.hypot(rel[:, 0], rel[:, 1]) > 0) else None
+    z_acm = _acm_noiseless(scenario, truth, acm)
+    _check_ranges(scenario, truth, rel, z_acm)
     n_pre = truth.n_pre
     z_pre = z_t[:n_pre] + rng.standard_normal((n_pre, 3)) * sig
     z_tgt = z_t[n_pre:] + rng.standard_normal((z_t.shape[0] - n_pre, 3)) * sig
-    z_acm = _acm_noiseless(scenario, truth, acm)
     z_acm = z_acm + rng.standard_normal(z_acm.shape) * sig
     if h1_true:
         return SprtAcmMeasurements(z_pre, z_acm, z_tgt)

@@ -92,6 +92,10 @@ class SprtAcmFilterConfig:
         ACM filter: drift-velocity PSD ``sigma_p**2`` (m^2/s, eqs 13-14).
     beta_std_factor : float
         ACM prior std of ``1/r`` is ``beta_std_factor / z_r(1)`` (eq 28 prints 2).
+    beta_std_factor_a1 : float or None
+        Diagnostic only (breaks the symmetry of the two hypotheses): the prior
+        factor of the decoy filter ``a1`` alone, the one run on track ``a``;
+        ``None`` (default) uses ``beta_std_factor`` for both decoy filters.
     init_pos_std, init_vel_std : float
         Target filter prior at the first pre-release scan (m, m/s; our choice).
     target_model : {"cv", "imm", "boost"}
@@ -109,8 +113,12 @@ class SprtAcmFilterConfig:
         after the release use the manoeuvre PSD (s, >= 0).
     p_stay_cv, p_stay_manoeuvre : float
         IMM only: probabilities of staying in each mode from one scan to the
-        next; the IMM starts at the release with the chain's stationary mode
-        probabilities.
+        next.
+    mu_release : float or None
+        IMM only: probability of the manoeuvre mode at the release, in [0, 1];
+        ``None`` (default) starts from the chain's stationary mode probabilities.
+        A value near 1 tells the IMM that a target which drops a decoy is likely
+        to turn then (the cue the boost uses).
     """
     sigma_r: float = 5.0
     sigma_theta: float = 0.035
@@ -125,6 +133,8 @@ class SprtAcmFilterConfig:
     p_stay_cv: float = 0.95
     p_stay_manoeuvre: float = 0.5
     boost_time: float = 2.0
+    beta_std_factor_a1: float | None = None
+    mu_release: float | None = None
 
     def __post_init__(self):
         for name in ("sigma_r", "sigma_theta", "sigma_rdot", "beta_std_factor",
@@ -136,6 +146,12 @@ class SprtAcmFilterConfig:
             v = _check_real(self, name, positive=True)
             if not v < 1.0:
                 raise ValueError(f"{name} must lie in (0, 1), got {v}")
+        if self.beta_std_factor_a1 is not None:
+            _check_real(self, "beta_std_factor_a1", positive=True)
+        if self.mu_release is not None:
+            v = _check_real(self, "mu_release", positive=False)
+            if not v <= 1.0:
+                raise ValueError(f"mu_release must lie in [0, 1], got {v}")
         if not isinstance(self.target_model, str):
             raise TypeError(f"target_model must be a string, got {type(self.target_model).__name__}")
         if self.target_model not in SPRT_ACM_TARGET_MODELS:
@@ -151,7 +167,10 @@ class SprtAcmFilterConfig:
 
     @property
     def manoeuvre_probability_at_release(self) -> float:
-        """Stationary probability of the IMM's manoeuvre mode (its value at the release)."""
+        """The IMM's manoeuvre-mode probability at the release: ``mu_release`` if set,
+        else the stationary probability of the mode chain."""
+        if self.mu_release is not None:
+            return float(self.mu_release)
         a, b = 1.0 - self.p_stay_cv, 1.0 - self.p_stay_manoeuvre
         return a / (a + b)
 
@@ -267,12 +286,13 @@ def _target_predict(x, P, Phi, Qa, own_prev, own_cur, T, x_out, P_out):
 
 @nb.njit(cache=True)
 def _run_one(z_pre, z_a, z_b, own, T, Phi, Qa, Qs, PI, mu0, Qb, n_boost, Ra, Rb, P0, qT,
-             beta_factor, sigma_theta, lam, nis, beta, mu_out):
+             beta_factors, sigma_theta, lam, nis, beta, mu_out):
     """One Monte Carlo run; fills lam (K,4), nis (K,4), beta (K,2), mu_out (K,2); returns ok.
 
     ``Qs`` (r, 4, 4), ``PI`` (r, r) and ``mu0`` (r,) describe the target filters
     after the release: ``r = 1`` is the CV EKF, whose first ``n_boost``
     post-release predictions use ``Qb`` instead of ``Qs[0]``; ``r = 2`` the IMM.
+    ``beta_factors`` (2,) are the prior factors of eq (28) for ``b0`` and ``a1``.
     """
     n_pre = z_pre.shape[0]
     K = z_a.shape[0]
@@ -366,7 +386,7 @@ def _run_one(z_pre, z_a, z_b, own, T, Phi, Qa, Qs, PI, mu0, Qb, n_boost, Ra, Rb,
                 Pm[s, 0, 0] = sigma_theta * sigma_theta
                 Pm[s, 0, 1] = 0.0
                 Pm[s, 1, 0] = 0.0
-                sb = beta_factor / z[0]
+                sb = beta_factors[s] / z[0]
                 Pm[s, 1, 1] = sb * sb
             else:
                 u1 = own[j, 0] - own[j - 1, 0]
@@ -386,7 +406,7 @@ def _run_one(z_pre, z_a, z_b, own, T, Phi, Qa, Qs, PI, mu0, Qb, n_boost, Ra, Rb,
 
 @nb.njit(cache=True)
 def sprt_acm_discriminate_kernel(z_pre, z_a, z_b, own, T, Phi, Qa, Qs, PI, mu0, Qb, n_boost,
-                                 Ra, Rb, P0, qT, beta_factor, sigma_theta, lam, nis, beta,
+                                 Ra, Rb, P0, qT, beta_factors, sigma_theta, lam, nis, beta,
                                  mu, ok):
     """Batch kernel: ``z_pre`` (N, n_pre, 3), ``z_a``/``z_b`` (N, K, 3), ``own`` (n_pre+K, 4).
 
@@ -395,12 +415,13 @@ def sprt_acm_discriminate_kernel(z_pre, z_a, z_b, own, T, Phi, Qa, Qs, PI, mu0, 
     filters' modes after it ``Qs`` (r, 4, 4) with ``PI`` (r, r) and ``mu0`` (r,),
     the boosted ``Qb`` (4, 4) of the first ``n_boost`` post-release predictions,
     ``Ra`` (3, 3), ``Rb`` (1, 1), target prior ``P0`` (4, 4), ``qT = sigma_p^2 T``,
-    ACM prior factor ``beta_factor`` and ``sigma_theta``.  Assumes valid input
+    ACM prior factors ``beta_factors`` (2,) of ``b0`` and ``a1`` and ``sigma_theta``.
+    Assumes valid input
     (checked by :func:`sprt_acm_discriminate`).
     """
     for n in range(z_a.shape[0]):
         ok[n] = _run_one(z_pre[n], z_a[n], z_b[n], own, T, Phi, Qa, Qs, PI, mu0, Qb, n_boost,
-                         Ra, Rb, P0, qT, beta_factor, sigma_theta, lam[n], nis[n], beta[n],
+                         Ra, Rb, P0, qT, beta_factors, sigma_theta, lam[n], nis[n], beta[n],
                          mu[n])
 
 
@@ -503,9 +524,10 @@ def sprt_acm_discriminate(z_pre, z_a, z_b, own_states, T, config=None):
     beta = np.empty((N, K, 2))
     mu = np.empty((N, K, 2))
     ok = np.empty(N, dtype=np.bool_)
+    f_a1 = cfg.beta_std_factor if cfg.beta_std_factor_a1 is None else cfg.beta_std_factor_a1
+    beta_factors = np.array([cfg.beta_std_factor, f_a1], dtype=float)
     sprt_acm_discriminate_kernel(zp, za, zb, own, T, Phi, Qa, Qs, PI, mu0, Qb, n_boost, Ra, Rb,
-                                 P0,
-                                 cfg.sigma_p ** 2 * T, float(cfg.beta_std_factor),
+                                 P0, cfg.sigma_p ** 2 * T, beta_factors,
                                  float(cfg.sigma_theta), lam, nis, beta, mu, ok)
     bad = ok & ~np.all(np.isfinite(lam), axis=(1, 2))
     if np.any(bad):
