@@ -171,9 +171,11 @@ def test_gaussian_logpdf_bad_input():
 
 
 def test_kernels_callable_from_numba():
+    from trackcore.core.logmath import cholesky_logpdf_kernel, logsumexp_kernel
+
     @nb.njit
     def use(a, L, r):
-        return core.logsumexp_kernel(a) + core.cholesky_logpdf_kernel(r, L)
+        return logsumexp_kernel(a) + cholesky_logpdf_kernel(r, L)
 
     L = np.linalg.cholesky(np.array([[2.0, 0.3], [0.3, 1.0]]))
     r = np.array([0.5, -1.0])

@@ -11,7 +11,8 @@ from trackcore.models import (converted_measurement_covariance, coordinated_turn
                               kron_axes, polar_to_cartesian, position_matrix, range_bearing,
                               range_bearing_doppler, range_bearing_doppler_jacobian,
                               range_bearing_jacobian, singer_process_noise, singer_transition,
-                              van_loan_discretize, wrap_angle, wrap_angle_kernel)
+                              van_loan_discretize, wrap_angle)
+from trackcore.models.measurement import wrap_angle_kernel
 
 
 # ---------------------------------------------------------------- motion
