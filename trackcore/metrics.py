@@ -19,13 +19,15 @@ Conventions
   GOSPA :cite:p:`rahmathullah2017gospa` uses the same assignment; its components
   (localisation, missed, false) are reported, as in Stone Soup, in units of
   distance to the power ``p`` so that ``distance**p = localisation + missed + false``.
-* Scale: for the usual orders (``p <= 20``) and cut-offs whose ``c**p`` lies well
-  inside the floating-point range, the powers are taken as written.  Otherwise OSPA
-  is computed in a scaled form (distances divided by ``c`` and by the bottleneck of
-  the assignment before the power, sums in log space), so that no power overflows
-  or underflows and every call returns (a power that overflows would turn the
-  assignment costs into ``inf`` and stall it).  GOSPA's components are themselves
-  powers; when ``c**p / alpha`` is not representable they raise ``ValueError``.
+* Scale: for the usual orders (``p <= 20``) and cut-offs ``c`` in ``[1e-100, 1e100]``
+  whose ``c**p`` lies well inside the floating-point range, the powers are taken as
+  written.  Otherwise both metrics are computed in a scaled form (coordinate
+  differences divided by ``c`` before they are squared, capped distances divided by
+  the bottleneck of the assignment before the power, sums in log space), so that no
+  square or power overflows or underflows and every call returns (a power that
+  overflows would turn the assignment costs into ``inf`` and stall the assignment).
+  GOSPA's components are themselves powers of distances; when ``c**p / alpha`` is not
+  representable they raise ``ValueError``.
 """
 from __future__ import annotations
 
@@ -287,7 +289,9 @@ def _c_pow(c, p):
 
 
 def _plain_powers(c, p) -> bool:
-    return p <= _P_PLAIN and _POW_LO <= _c_pow(c, p) <= _POW_HI
+    """The powers and squared distances are taken as written: moderate ``p``, and ``c``
+    (so the capped distances) far from both ends of the floating-point range."""
+    return p <= _P_PLAIN and 1e-100 <= c <= 1e100 and _POW_LO <= _c_pow(c, p) <= _POW_HI
 
 
 @nb.njit(cache=True)
@@ -426,20 +430,38 @@ def _bottleneck_rect_kernel(T):
 
 
 @nb.njit(cache=True)
+def _scaled_distances_kernel(A, B, c):
+    """``t = min(||a_i - b_j||, c) / c`` for the rows of A (r, d) and B (k, d), with the
+    differences divided by ``c`` before they are squared (no overflow for coordinates
+    near 1e300, no underflow for coordinates and ``c`` near 1e-300)."""
+    r, d = A.shape
+    k = B.shape[0]
+    T = np.empty((r, k))
+    for i in range(r):
+        for j in range(k):
+            s = 0.0
+            capped = False
+            for q in range(d):
+                e = (A[i, q] - B[j, q]) / c
+                if not abs(e) < 1.0:
+                    capped = True
+                    break
+                s += e * e
+            T[i, j] = 1.0 if capped or s >= 1.0 else math.sqrt(s)
+    return T
+
+
+@nb.njit(cache=True)
 def _scaled_assignment(X, Y, c, p, cols):
     """The optimal assignment of the rows of ``X`` to those of ``Y`` (``1 <= m <= n``)
-    in the scaled form; writes it to ``cols`` (m,) and returns ``(b, S, D)``: the capped
-    distances ``D = min(d, c)``, the bottleneck ``b`` of ``t = D / c`` and
+    in the scaled form; writes it to ``cols`` (m,) and returns ``(b, S, T)``: the capped
+    distances over ``c``, ``T = min(d, c) / c``, their bottleneck ``b`` and
     ``S = min_pi sum (t / b)^p``, so that ``min_pi sum min(d, c)^p = (c b)^p S``.
     Every optimal assignment has its largest ``t / b >= 1``, so ``1 <= S <= m``: costs
     above ``m + 1`` cannot be optimal and are capped there; no power overflows, and the
     ones that underflow are below ``1e-308`` of the optimum."""
-    D = _capped_distances_kernel(X, Y, c)
-    m, n = D.shape
-    T = np.empty((m, n))
-    for i in range(m):
-        for j in range(n):
-            T[i, j] = D[i, j] / c
+    T = _scaled_distances_kernel(X, Y, c)
+    m, n = T.shape
     b = _bottleneck_rect_kernel(T)
     cost = np.empty((m, n))
     if b == 0.0:
@@ -447,7 +469,7 @@ def _scaled_assignment(X, Y, c, p, cols):
             for j in range(n):
                 cost[i, j] = 0.0 if T[i, j] == 0.0 else 1.0
         min_cost_assignment_kernel(cost, cols)
-        return 0.0, 0.0, D
+        return 0.0, 0.0, T
     cap = m + 1.0
     lcap = math.log(cap)
     for i in range(m):
@@ -459,7 +481,7 @@ def _scaled_assignment(X, Y, c, p, cols):
                 e = p * math.log(u)
                 cost[i, j] = cap if e >= lcap else math.exp(e)
     S = min_cost_assignment_kernel(cost, cols)
-    return b, S, D
+    return b, S, T
 
 
 def _log_add(terms):
@@ -643,13 +665,13 @@ def _gospa_scaled(X, Y, c, p, alpha):
     terms = []
     if m:
         cols = np.empty(m, dtype=np.int64)
-        b, S, D = _scaled_assignment(A, B, c, p, cols)
+        b, S, T = _scaled_assignment(A, B, c, p, cols)
         for i in range(m):
-            d = float(D[i, cols[i]])
-            if alpha == 2.0 and d >= c:
+            t = float(T[i, cols[i]])
+            if alpha == 2.0 and t >= 1.0:
                 n_cut += 1
-            elif d > 0.0:
-                loc += math.exp(p * math.log(d))
+            elif t > 0.0:
+                loc += math.exp(p * (math.log(t) + math.log(c)))
         if b > 0.0:
             terms.append(p * math.log(b) + math.log(S))
     if n > m:

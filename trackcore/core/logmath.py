@@ -81,7 +81,7 @@ def logsumexp(a, axis=None):
         raise ValueError(f"axis={axis} is out of range for an array with {arr.ndim} "
                          "dimension(s)")
     moved = np.moveaxis(arr, axis, -1)
-    flat = np.ascontiguousarray(moved.reshape(-1, moved.shape[-1]))
+    flat = np.ascontiguousarray(moved.reshape(math.prod(moved.shape[:-1]), moved.shape[-1]))
     out = np.empty(flat.shape[0])
     for i in range(flat.shape[0]):
         out[i] = logsumexp_kernel(flat[i])

@@ -137,13 +137,14 @@ def _as_weights(w, name="w"):
         raise ValueError(f"{name} must contain only finite values (found NaN or inf)")
     if np.any(arr < 0):
         raise ValueError(f"{name} must be non-negative")
-    total = float(arr.sum())
+    with np.errstate(over="ignore"):
+        total = float(arr.sum())
     if not total > 0:
         raise ValueError(f"{name} must have a positive sum (all weights are zero)")
     if total < 1e-280 or total == math.inf:
         # keep the kernels' cumulative sums out of the subnormal range and below overflow
         arr = arr / arr.max()
-        if float(arr.sum()) == math.inf:  # more than ~1e308 particles: not reachable
+        if not _finite_sum(arr):  # more than ~1e308 particles: not reachable
             raise ValueError(f"{name} has too many entries to sum")
     return arr
 
@@ -207,9 +208,15 @@ def propagate_linear(particles, F, Q, rng, *, noise_factor=None, out=None):
         if out is not particles and np.may_share_memory(out, X):
             raise ValueError("out must be particles itself or not overlap it")
     propagate_linear_kernel(X, F, L, rng, out)
-    if not math.isfinite(float(out.sum())):
+    if not _finite_sum(out):
         finite_result(out, "the propagated particles", "particles, F and Q")
     return out
+
+
+def _finite_sum(a) -> bool:
+    """One pass: True when the sum is finite (then so is every entry); a sum of finite
+    entries that overflows (numpy warns) sends the caller to the entry-wise check."""
+    return math.isfinite(float(a.sum()))
 
 
 # --------------------------------------------------------------------------
@@ -1104,7 +1111,7 @@ def bootstrap_step(particles, logw, F, L, z, R, rng, model="range_bearing", *,
     else:
         log_ev, ess, res = bootstrap_step_kernel(X, lw, F, L, z, Rinv, logdet, code, sx, sy,
                                                  rng, ess_threshold, scratch)
-    if not math.isfinite(float(X.sum())):  # one pass; a sum of finite values rarely overflows
+    if not _finite_sum(X):
         finite_result(X, "the propagated particles", "particles, F and L")
     if log_ev == -math.inf:
         raise ValueError("every particle has likelihood zero (each log-likelihood is -inf or "
