@@ -377,8 +377,6 @@ PENDING_OTHER_OWNERS = {
         "silent non-finite result (models/modified_polar.py)",
     "modified_polar_Q[sigma_p=1e300]":
         "silent non-finite result (models/modified_polar.py)",
-    "ncc_reference[kind=int]":
-        "mismatch (detection/image.py)",
     "position_failures[threshold=1e300]":
         "OverflowError (scenarios/houles.py)",
     "radar_equation_snr[range_m=*1e-300|pt_tau=nan|pt_tau=inf|pt_tau=-inf|pt_tau=1e300]":

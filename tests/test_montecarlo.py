@@ -195,5 +195,7 @@ def test_counts_beyond_64_bits_are_value_errors():
         run(lambda rng: 0, 2**70, 1)
     with pytest.raises(ValueError, match="max_workers must fit"):
         process_pool(2**70)
+    with pytest.raises(ValueError, match="max_workers must be at most 1024"):
+        process_pool(2**40)
     with pytest.raises(ValueError, match="n_runs must be an integer of magnitude"):
         default_chunksize(1e300)
