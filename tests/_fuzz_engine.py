@@ -11,6 +11,11 @@
   uses more than its CPU-time limit is a hang (the child is killed, so a numba loop that
   never returns fails the test instead of hanging the suite); a child that dies is a crash.
   The child classifies everything else (:func:`classify`).
+* A numba kernel that writes out of bounds may corrupt memory without crashing at once
+  (glibc may only notice at a later ``free``, e.g. when the child exits).  With the
+  environment variable ``TRACKCORE_FUZZ_BOUNDSCHECK=1`` the child compiles every kernel
+  with bounds checks (``NUMBA_BOUNDSCHECK=1``, in a numba cache of its own under the
+  temporary directory), so each such access is reported at the case that makes it.
 
 Nothing here decides what is acceptable: the test file holds the policy tables.
 """
@@ -107,6 +112,18 @@ class Example:
         self.kwargs = kwargs
         self.skip = {}
         self.cpu_limit = CASE_CPU_LIMIT
+        self.extras = []
+
+    def rejects(self, case_id, *args, match=None, **kwargs):
+        """An extra case (a known hard input) that must raise ``ValueError`` or
+        ``TypeError``, with a message matching the regular expression ``match``."""
+        self.extras.append((case_id, args, kwargs, "error", match))
+        return self
+
+    def accepts(self, case_id, *args, **kwargs):
+        """An extra case that must return a finite result (or raise a clear error)."""
+        self.extras.append((case_id, args, kwargs, "any", None))
+        return self
 
     def no_mutate(self, **reasons):
         self.skip.update(reasons)
@@ -343,6 +360,8 @@ def case_specs(example: Example, names):
                 continue
             seen.add(cid)
             specs.append((cid, where, k))
+    for j, extra in enumerate(example.extras):
+        specs.append((f"issue:{extra[0]}", ("extra", j), None))
     return specs
 
 
@@ -353,6 +372,9 @@ def build_case(example: Example, spec):
     kwargs = dict(example.kwargs)
     if where is None:
         return tuple(args), kwargs
+    if where[0] == "extra":
+        _, eargs, ekwargs, _, _ = example.extras[where[1]]
+        return tuple(eargs), dict(ekwargs)
     if where[0] == "pos":
         args[where[1]] = mutations(args[where[1]])[k][1]
     else:
@@ -467,10 +489,30 @@ def same_result(a, b, depth=0) -> bool:
 
 
 # ------------------------------------------------------------------ the child
+#: numpy's LinAlgError and AxisError are ValueErrors (AxisError also an IndexError), but
+#: they name no argument of the public call: they count as unclear errors
+_NOT_CLEAR = (np.linalg.LinAlgError, IndexError)
+
+
 def _materialise(v):
-    if isinstance(v, _Replace):
+    if type(v).__name__ == "_Replace":  # by name: the engine may be loaded twice (__main__)
         return v.build()
     return v
+
+
+def classify_extra(func, args, kwargs, expect, match, allowed=()):
+    """:func:`classify` for an extra case: one that must raise (``expect == "error"``)
+    returning is ``accepted`` and an error whose message does not match ``match`` is
+    ``unclear-error``."""
+    import re
+
+    status, detail, result = classify(func, args, kwargs, None, False, allowed)
+    if expect == "error":
+        if status in ("ok", "nonfinite", "mismatch"):
+            return "accepted", "returned instead of raising ValueError/TypeError", result
+        if status == "error" and match and re.search(match, detail) is None:
+            return "unclear-error", f"{detail} (should match {match!r})", result
+    return status, detail, result
 
 
 def classify(func, args, kwargs, valid_result, layout, allowed=()):
@@ -493,6 +535,8 @@ def classify(func, args, kwargs, valid_result, layout, allowed=()):
             with np.errstate(all="ignore"):
                 result = func(*args, **kwargs)
     except (ValueError, TypeError) as exc:
+        if isinstance(exc, _NOT_CLEAR):  # ValueError subclasses that say nothing to a caller
+            return "bad-error", f"{type(exc).__name__}: {str(exc)[:300]}", None
         return "error", f"{type(exc).__name__}: {str(exc)[:300]}", None
     except Exception as exc:  # noqa: BLE001 - classifying every other exception is the point
         tb = traceback.extract_tb(exc.__traceback__)
@@ -593,8 +637,13 @@ def child_main(conn, examples_module, skip_cases, allowed_nonfinite):
                 conn.send(("done", i, cid, "setup-error", f"{type(exc).__name__}: {exc}"))
                 continue
             t0 = _cpu_seconds()
-            status, detail, result = classify(func, args, kwargs, valid_result,
-                                              tag in LAYOUT_TAGS, ignore)
+            if specs[i][1] is not None and specs[i][1][0] == "extra":
+                _, _, _, expect, match = example.extras[specs[i][1][1]]
+                status, detail, result = classify_extra(func, args, kwargs, expect, match,
+                                                        ignore)
+            else:
+                status, detail, result = classify(func, args, kwargs, valid_result,
+                                                  tag in LAYOUT_TAGS, ignore)
             if i == 0:
                 valid_result = result
             conn.send(("done", i, cid, status, detail, _cpu_seconds() - t0))
@@ -630,7 +679,20 @@ class Runner:
                                      args=(child, self.examples_module, self.skip_cases,
                                            self.allowed_nonfinite),
                                      daemon=True)
-        self.proc.start()
+        saved = dict(os.environ)
+        if os.environ.get("TRACKCORE_FUZZ_BOUNDSCHECK"):
+            # numba kernels compiled with bounds checks (an out-of-bounds access is an
+            # IndexError, a bad error), in a cache of their own outside the repository
+            import tempfile
+
+            os.environ["NUMBA_BOUNDSCHECK"] = "1"
+            os.environ.setdefault("NUMBA_CACHE_DIR", os.path.join(
+                tempfile.gettempdir(), "trackcore-fuzz-boundscheck"))
+        try:
+            self.proc.start()  # the spawned child takes this environment
+        finally:
+            os.environ.clear()
+            os.environ.update(saved)
         child.close()
         self.conn = parent
 
@@ -643,15 +705,21 @@ class Runner:
         self.restarts += 1
 
     def close(self):
+        """Stop the child; returns its exit code (non-zero: it died on the way out, e.g.
+        glibc found a corrupted heap when freeing memory)."""
+        code = None
         if self.proc is not None and self.proc.is_alive():
             try:
                 self.conn.send(("stop",))
-                self.proc.join(5)
+                self.proc.join(30)
             except (OSError, BrokenPipeError):
                 pass
             if self.proc.is_alive():
                 self.proc.kill()
+                self.proc.join(5)
+            code = self.proc.exitcode
         self.proc = None
+        return code
 
     def run(self, name):
         """``[(case_id, status, detail)]`` of every case of ``name`` (statuses of
@@ -739,8 +807,9 @@ def main(argv=None):
     a = ap.parse_args(argv)
     T = importlib.import_module("test_fuzz_public_api")
     names = a.names or [n for n in T.FUZZED if n in T.X.EXAMPLES]
-    r = Runner("_fuzz_examples", skip_cases=T._hang_cases(),
-               allowed_nonfinite=T.ALLOWED_NONFINITE)
+    # the engine as the test module sees it (this file may be running as __main__)
+    r = T.E.Runner("_fuzz_examples", skip_cases=T._hang_cases(),
+                   allowed_nonfinite=T.ALLOWED_NONFINITE)
     t0 = time.monotonic()
     counts = collections.Counter()
     groups = collections.defaultdict(list)
@@ -767,10 +836,18 @@ def main(argv=None):
                         kind = st
                     groups[(name, kind, own, mod)].append(cid)
     finally:
+        child_cpu = _proc_cpu_seconds(r.proc.pid) if r.proc is not None else None
         r.close()
     wall = time.monotonic() - t0
+    if child_cpu is not None:
+        print(f"child process CPU {child_cpu:.0f} s (since its last start)")
+    cpu = collections.Counter()
+    for (name, _), sec in r.cpu.items():
+        cpu[name] += sec
+    print("most CPU:", ", ".join(f"{n} {v:.1f} s" for n, v in cpu.most_common(12)))
     print(f"functions {len(names)}, cases {sum(counts.values())}: {dict(counts)}; "
-          f"{wall:.0f} s wall, {r.restarts} child restarts", flush=True)
+          f"{wall:.0f} s wall, {sum(cpu.values()):.0f} s CPU in the calls, "
+          f"{r.restarts} child restarts", flush=True)
     if a.pending:
         for (name, kind, own, mod), cids in sorted(groups.items()):
             if own:

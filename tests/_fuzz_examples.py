@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from _fuzz_engine import call
+from _fuzz_engine import _Replace, call
 
 EXAMPLES = {}
 
@@ -144,7 +144,8 @@ def as_offsets():
 
 @example()
 def logsumexp():
-    return call(np.array([[0.0, -1.0, -np.inf], [2.0, 3.0, 1.0]]), axis=1)
+    return (call(np.array([[0.0, -1.0, -np.inf], [2.0, 3.0, 1.0]]), axis=1)
+            .rejects("inf", np.array([np.inf, 0.0]), match="a must not contain"))
 
 
 @example()
@@ -174,7 +175,7 @@ def spawn_generators():
 
 @example()
 def generator_for_run():
-    return call(7, 1, 3)
+    return call(7, 1, 3).rejects("i=2.5", 1, 2.5, 3, match="i must be an integer")
 
 
 @example()
@@ -398,9 +399,13 @@ def loglik_range_bearing():
 def bootstrap_step():
     from trackcore.filters import noise_factor as nf
     N = 40
-    return call(particles(N), np.zeros(N), cv_F(), nf(cv_Q()), np.array([110.0, 0.47]),
-                np.diag([25.0, 1e-3]), rng(), "range_bearing", sensor=(1.0, -1.0),
-                ess_threshold=0.5, scratch=np.zeros((N, 4)), parallel=False)
+    far = particles(N)
+    far[0, 0] = 1e300
+    return (call(particles(N), np.zeros(N), cv_F(), nf(cv_Q()), np.array([110.0, 0.47]),
+                 np.diag([25.0, 1e-3]), rng(), "range_bearing", sensor=(1.0, -1.0),
+                 ess_threshold=0.5, scratch=np.zeros((N, 4)), parallel=False)
+            .accepts("far-particle", far, np.zeros(N), cv_F(), nf(cv_Q()),
+                     np.array([110.0, 0.47]), np.diag([25.0, 1e-3]), rng()))
 
 
 # ------------------------------------------------------------------ association: gating, PDA
@@ -498,7 +503,8 @@ def _sets():
 @example()
 def ospa():
     X, Y = _sets()
-    return call(X, Y, 20.0, 2.0)
+    return (call(X, Y, 20.0, 2.0)
+            .accepts("p=300", [[0, 0], [1, 1]], [[50, 0], [0, 50]], 100, 300.0))
 
 
 @example()
@@ -755,7 +761,9 @@ def rank_gamma():
 
 @example()
 def hpda_betas():
-    return call(np.array([0.02, 0.01]), np.array([0.6, 0.3]), np.array([0.2, 0.3]), 5.0)
+    return (call(np.array([0.02, 0.01]), np.array([0.6, 0.3]), np.array([0.2, 0.3]), 5.0)
+            .rejects("p_target=1.1", np.array([0.02]), np.array([1.1]), np.array([0.2]), 5.0,
+                     match="p_target"))
 
 
 @example()
@@ -769,8 +777,10 @@ def hpda_mixture_loglik():
     X = np.column_stack([r.normal(3000, 50, 30), r.normal(4000, 50, 30), np.zeros(30),
                          np.zeros(30)])
     R = np.diag([50.0 ** 2, np.deg2rad(0.1) ** 2])
-    return call(X, np.array([5000.0, math.atan2(4000, 3000)]), R, 0.7, 0.3, 6.0,
-                np.array([1.0, 2.0]))
+    z = np.array([5000.0, math.atan2(4000, 3000)])
+    return (call(X, z, R, 0.7, 0.3, 6.0, np.array([1.0, 2.0]))
+            .rejects("asymmetric-R", X, z, np.array([[2500.0, 40.0], [0.0, 3e-6]]), 0.7, 0.3,
+                     6.0, match="R"))
 
 
 @example()
@@ -802,9 +812,14 @@ def _valid():
     return np.array([[True, True], [True, False], [False, True]])
 
 
-@example("feasible_event_count", "feasible_events", "jpda_clusters")
+@example("feasible_event_count", "feasible_events")
 def _valid_only():
-    return call(_valid())
+    return call(_valid()).rejects("12x12-all-valid", np.ones((12, 12), bool), match="limit")
+
+
+@example("jpda_clusters")
+def _valid_clusters():
+    return call(_valid()).accepts("12x12-all-valid", np.ones((12, 12), bool))
 
 
 @example()
@@ -814,13 +829,16 @@ def feature_validation():
 
 @example()
 def jpda_marginals():
-    return call(np.full((3, 2), 0.01), _valid(), 0.9, 1e-3,
-                np.array([[1.0, 0.7], [0.8, 0.7], [0.2, 0.9]]), "parametric", None, 0.6)
+    return (call(np.full((3, 2), 0.01), _valid(), 0.9, 1e-3,
+                 np.array([[1.0, 0.7], [0.8, 0.7], [0.2, 0.9]]), "parametric", None, 0.6)
+            .accepts("10x10-all-valid", np.full((10, 10), 0.01), np.ones((10, 10), bool), 0.9,
+                     1e-3))
 
 
 @example()
 def permanent():
-    return call(np.array([[1.0, 2.0, 0.5], [0.3, 1.0, 2.0]]))
+    return (call(np.array([[1.0, 2.0, 0.5], [0.3, 1.0, 2.0]]))
+            .accepts("2x30-ones", np.ones((2, 30))))
 
 
 # ------------------------------------------------------------------ detection
@@ -866,7 +884,8 @@ def sample_target_amplitudes():
 
 @example("marcum_q1", "marcum_q1_complement", "log_marcum_q1", "log_marcum_q1_complement")
 def _marcum():
-    return call(np.array([1.0, 3.0]), np.array([2.0, 2.5]))
+    return (call(np.array([1.0, 3.0]), np.array([2.0, 2.5]))
+            .accepts("a=3e4", 3e4, 1.0).accepts("a=1e300", 1e300, 1.0))
 
 
 @example("marcum_detection_probability", "marcum_miss_probability",
@@ -955,7 +974,7 @@ def bar_sprite():
 
 @example()
 def foliage_sprite():
-    return call(rng(), 5.0, 70.0, 0.3)
+    return call(rng(), 5.0, 70.0, 0.3).rejects("radius=nan", rng(), np.nan, match="radius")
 
 
 @example()
@@ -979,7 +998,9 @@ def _small_frame():
 def render_frame():
     from trackcore.detection import vehicle_sprite as vs
     I, M = vs("van")
-    return call(_small_frame(), [(I, M, 30.0, 20.0)], rng(), 1.0, 3.0)
+    return (call(_small_frame(), [(I, M, 30.0, 20.0)], rng(), 1.0, 3.0)
+            .rejects("gain=nan", _small_frame(), [(I, M, 30.0, 20.0)], rng(), np.nan, 3.0,
+                     match="gain"))
 
 
 @example()
@@ -1018,7 +1039,10 @@ def mask_iou():
 @example("ncc", "ncc_reference")
 def _ncc():
     from trackcore.detection import vehicle_sprite as vs
-    return call(vs("van")[1], vs("sedan")[1], 2, "mask")
+    bad = vs("van")[1].astype(float)
+    bad[0, 0] = np.nan
+    return (call(vs("van")[1], vs("sedan")[1], 2, "mask")
+            .rejects("mask-nan", bad, vs("sedan")[1], 2, "mask", match="A"))
 
 
 @example()
@@ -1031,19 +1055,23 @@ def ncc_matrix():
 # ------------------------------------------------------------------ trackers
 @example()
 def HpdaPfConfig():
-    return call(0.9, 10.0, 3e-8, n_particles=50, T=10.0, sigma_r=50.0, pi11=0.98,
-                p_confirm=0.9, gate_probability=0.99)
+    return (call(0.9, 10.0, 3e-8, n_particles=50, T=10.0, sigma_r=50.0, pi11=0.98,
+                 p_confirm=0.9, gate_probability=0.99)
+            .rejects("pi11=1.1", 0.9, 10.0, 3e-8, pi11=1.1, match="pi11")
+            .rejects("sigma_r=-50", 0.9, 10.0, 3e-8, sigma_r=-50.0, match="sigma_r"))
 
 
 @example()
 def ClusteringConfig():
-    return call(0.9, 3e-8, n_particles=40, T=10.0, sigma_r=50.0, eta=2, eps_w=1.0)
+    return (call(0.9, 3e-8, n_particles=40, T=10.0, sigma_r=50.0, eta=2, eps_w=1.0)
+            .rejects("sigma_r=0", 0.9, 3e-8, sigma_r=0.0, match="sigma_r"))
 
 
 @example()
 def SmcPhdConfig():
-    return call(0.9, 3e-8, n_per_target=50, n_birth=30, T=10.0, sigma_r=50.0, birth_mass=0.2,
-                p_survival=0.99)
+    return (call(0.9, 3e-8, n_per_target=50, n_birth=30, T=10.0, sigma_r=50.0,
+                 birth_mass=0.2, p_survival=0.99)
+            .rejects("sigma_r=0", 0.9, 3e-8, sigma_r=0.0, match="sigma_r"))
 
 
 @example()
@@ -1051,7 +1079,12 @@ def hpda_pf_run():
     from trackcore.trackers import HpdaPfConfig as C
     p, truth, s = hpda_data()
     cfg = C(pd=p.pd, snr=p.snr, clutter_density_xy=p.clutter_density_xy, n_particles=40)
-    return call(s.z, s.amplitude, s.offsets, cfg, rng()).limit(10)
+    # a config changed inside the case, so that a validating constructor raises there
+    return (call(s.z, s.amplitude, s.offsets, cfg, rng()).limit(10)
+            .rejects("snr=-1", s.z, s.amplitude, s.offsets, _Replace(cfg, {"snr": -1.0}), rng(),
+                     match="snr")
+            .rejects("sigma_r=0", s.z, s.amplitude, s.offsets, _Replace(cfg, {"sigma_r": 0.0}),
+                     rng(), match="sigma_r"))
 
 
 @example()
@@ -1113,14 +1146,18 @@ def smc_phd_update():
 @example()
 def smc_phd_step():
     X, w = _phd_particles()
-    return call(X, w, _phd_scan(), _phd_model(), rng(), n_out=50)
+    return (call(X, w, _phd_scan(), _phd_model(), rng(), n_out=50)
+            .rejects("model.pd=1.1", X, w, _phd_scan(), _phd_model()._replace(pd=1.1), rng(),
+                     match="pd"))
 
 
 @example()
 def smc_phd_filter():
     X, w = _phd_particles()
     z = np.vstack([_phd_scan(), _phd_scan()[:2]])
-    return call(X, w, z, np.array([0, 3, 5]), _phd_model(), rng(), n_out=50)
+    return (call(X, w, z, np.array([0, 3, 5]), _phd_model(), rng(), n_out=50)
+            .rejects("model.n_birth=nan", X, w, z, np.array([0, 3, 5]),
+                     _phd_model()._replace(n_birth=np.nan), rng(), match="n_birth"))
 
 
 @example()
@@ -1265,7 +1302,7 @@ def run_intensity_tbd():
 
 @example()
 def markov_matrix():
-    return call(3, 0.9)
+    return call(3, 0.9).rejects("r=2.5", 2.5, 0.9, match="r")
 
 
 @example()
@@ -1305,8 +1342,10 @@ def _imm_pdaf_inputs():
 def imm_pdaf_track_packed():
     from trackcore.trackers import car_imm_model_set as car
     z, off, x0, P0 = _imm_pdaf_inputs()
-    return call(car(), z, off, x0, P0, 400.0 * np.eye(2), pd=0.9, pg=0.99,
-                clutter_density=5e-5, prev_position=None)
+    return (call(car(), z, off, x0, P0, 400.0 * np.eye(2), pd=0.9, pg=0.99,
+                 clutter_density=5e-5, prev_position=None)
+            .rejects("models.T=-1", car()._replace(T=-1.0), z, off, x0, P0,
+                     400.0 * np.eye(2), match="T"))
 
 
 @example()
@@ -1320,8 +1359,10 @@ def imm_pdaf_track():
 
 @example()
 def JPDATrackerConfig():
-    return call("FJPDA", 0.3, 1.0, 0.9, 9.21, 1e-5, 0.6, 5.0, 3.0, 20.0, 5.0, 3, True, "cv",
-                4.0)
+    return (call("FJPDA", 0.3, 1.0, 0.9, 9.21, 1e-5, 0.6, 5.0, 3.0, 20.0, 5.0, 3, True, "cv",
+                 4.0)
+            .rejects("pair_margin=-1", pair_margin=-1.0, match="pair_margin")
+            .rejects("dup_frames=nan", dup_frames=np.nan, match="dup_frames"))
 
 
 @example()
@@ -1333,7 +1374,11 @@ def JPDATracker():
 @example()
 def run_jpda_tracker():
     from trackcore.trackers import JPDATrackerConfig as C
-    return call([_dets([[50.0 + 2 * k, 100.0 + 0.5 * k]]) for k in range(6)], C(variant="FJPDA"))
+    dets = [_dets([[50.0 + 2 * k, 100.0 + 0.5 * k]]) for k in range(6)]
+    bad = list(dets)
+    bad[2] = _dets([[np.nan, 101.0]])
+    return (call(dets, C(variant="FJPDA"))
+            .rejects("nan-detection", bad, C(variant="FJPDA"), match="detections"))
 
 
 @example()
@@ -1356,7 +1401,8 @@ def sprt_acm_llr():
 # ------------------------------------------------------------------ scenarios
 @example()
 def HpdaParameters():
-    return call(0.9, 10.0, 5.0, 10.0, 20, 1e4, 50.0, 0.0017, 0.0015, 0.01)
+    return (call(0.9, 10.0, 5.0, 10.0, 20, 1e4, 50.0, 0.0017, 0.0015, 0.01)
+            .rejects("sigma_r=nan", 0.9, 10.0, 5.0, sigma_r=np.nan, match="sigma_r"))
 
 
 @example()
@@ -1405,7 +1451,8 @@ def run_hpda_trial():
 
 @example()
 def TbdRadarParameters():
-    return call(1.0, 10, 0.01, 1.3e9, 100, 35.0, 35.0, 10.0)
+    return (call(1.0, 10, 0.01, 1.3e9, 100, 35.0, 35.0, 10.0)
+            .rejects("n_pulses=nan", n_pulses=np.nan, match="n_pulses"))
 
 
 @example()
@@ -1434,7 +1481,8 @@ def sample_clutter():
 
 @example()
 def radar_equation_snr():
-    return call(np.array([1.0, 2.0]), np.array([10e3, 20e3]), 1e-3)
+    return (call(np.array([1.0, 2.0]), np.array([10e3, 20e3]), 1e-3)
+            .rejects("rcs<0", np.array([-0.01]), np.array([10e3]), 1e-3, match="rcs_m2"))
 
 
 @example()
@@ -1529,7 +1577,7 @@ def SprtAcmScenario():
 
 @example()
 def sprt_acm_scenario():
-    return call(2, t_end=80.0)
+    return call(2, t_end=80.0).rejects("t_end=nan", 1, t_end=np.nan, match="t_end")
 
 
 @example()
@@ -1667,7 +1715,7 @@ def rate_ci():
 
 @example()
 def wilson_interval():
-    return call(7, 20, 1.96)
+    return call(7, 20, 1.96).rejects("k=nan", np.nan, 10, match="k")
 
 
 @example()
