@@ -171,9 +171,11 @@ def test_gaussian_logpdf_bad_input():
 
 
 def test_kernels_callable_from_numba():
+    from trackcore.core.logmath import cholesky_logpdf_kernel, logsumexp_kernel
+
     @nb.njit
     def use(a, L, r):
-        return core.logsumexp_kernel(a) + core.cholesky_logpdf_kernel(r, L)
+        return logsumexp_kernel(a) + cholesky_logpdf_kernel(r, L)
 
     L = np.linalg.cholesky(np.array([[2.0, 0.3], [0.3, 1.0]]))
     r = np.array([0.5, -1.0])
@@ -231,3 +233,50 @@ def test_as_offsets():
     for bad in ([1, 5], [0, 4], [0, 3, 2, 5]):
         with pytest.raises(ValueError, match=r"offsets must start at 0.*\(5\)"):
             as_offsets(bad, 5)
+
+
+# --------------------------------------------------------------------------- issue 17
+def test_logsumexp_rejects_plus_inf_like_normalize_log_weights():
+    for bad in ([np.inf, 0.0], [np.nan, 0.0]):
+        with pytest.raises(ValueError, match="a must not contain NaN or \\+inf"):
+            core.logsumexp(bad)
+        with pytest.raises(ValueError, match="logw must not contain NaN or \\+inf"):
+            core.normalize_log_weights(bad)
+    assert core.logsumexp(np.zeros((2, 0)), axis=1).tolist() == [-np.inf, -np.inf]
+    with pytest.raises(ValueError, match="axis=2"):
+        core.logsumexp(np.zeros((2, 3)), axis=2)
+    with pytest.raises(TypeError, match="axis"):
+        core.logsumexp(np.zeros((2, 3)), axis=1.0)
+
+
+def test_as_int_bounds():
+    assert core.as_int(2.0**53, "n") == 2**53
+    assert core.as_int(2**63 - 1, "n") == 2**63 - 1
+    with pytest.raises(ValueError, match="n must be an integer of magnitude at most 2\\*\\*53"):
+        core.as_int(1e300, "n")
+    with pytest.raises(ValueError, match="n must fit in a 64-bit integer"):
+        core.as_int(2**70, "n")
+    for bad in (np.nan, np.inf, 2.5):
+        with pytest.raises(TypeError, match="n must be an integer"):
+            core.as_int(bad, "n")
+
+
+def test_generator_for_run_index_checked_and_equal_to_spawn():
+    with pytest.raises(TypeError, match="i must be an integer, got float"):
+        core.generator_for_run(1, 2.5, 3)
+    with pytest.raises(ValueError, match="n must fit"):
+        core.generator_for_run(1, 0, 2**70)
+    for seed in (0, 7, 2**80):
+        gens = core.spawn_generators(seed, 4)
+        for i in range(4):
+            assert core.generator_for_run(seed, i, 4).random() == gens[i].random()
+    # a huge n costs nothing: the i-th child is built directly
+    g = core.generator_for_run(3, 2**62, 2**63 - 1)
+    assert 0.0 <= g.random() < 1.0
+
+
+def test_finite_result():
+    x = np.array([1.0, 2.0])
+    assert core.finite_result(x, "the value", "x") is x
+    with pytest.raises(ValueError, match="the value is not finite.*check the magnitude of x"):
+        core.finite_result(np.array([1.0, np.inf]), "the value", "x")

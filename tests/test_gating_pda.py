@@ -393,3 +393,20 @@ def test_pda_matches_stonesoup():
     r = pda_update(xp, Pp, zs, H @ xp, H, R, b, b0)
     np.testing.assert_allclose(r.x, np.asarray(m, float).ravel()[perm], rtol=0, atol=1e-12)
     np.testing.assert_allclose(r.P, np.asarray(C, float)[np.ix_(perm, perm)], rtol=0, atol=1e-12)
+
+
+# ---------------------------------------------------------------- issue 17
+def test_overflow_raises_and_empty_scan_likelihood():
+    S = np.array([[2.0, 0.3], [0.3, 1.0]])
+    with pytest.raises(ValueError, match="overflows"):
+        gate_volume(1e300, np.eye(3))
+    assert gate_volume(math.inf, S) == math.inf
+    with pytest.raises(ValueError, match="overflows"):
+        mahalanobis_gate(np.array([[1e300, 0.0]]), np.zeros(2), S, 9.21)
+    # nonparametric PDA: an empty scan has the likelihood of a miss, 1 - PD PG
+    assert pda_log_likelihood(np.zeros(0), 0.9, 0.99, mode="nonparametric",
+                              volume=5.0) == pytest.approx(math.log(1 - 0.9 * 0.99))
+    x, P = np.zeros(4), np.eye(4)
+    H = np.eye(2, 4)
+    with pytest.raises(ValueError, match="overflows"):
+        pda_update(x, P, np.array([[1e300, 0.0]]), np.zeros(2), H, np.eye(2), [0.5], 0.5)

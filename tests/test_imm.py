@@ -186,3 +186,19 @@ def test_mode_probabilities_stay_normalised(seed, r):
     assert np.all(np.isfinite(run.mu)) and np.all(run.mu >= 0)
     np.testing.assert_allclose(run.mu.sum(axis=1), 1.0, rtol=1e-12)
     assert np.all(np.isfinite(run.P)) and np.all(np.isfinite(run.loglik))
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_run_names_arguments_as_written_and_rejects_overflow():
+    """Errors of imm_filter_run name xs0, Ps0, mu0 (issue 17); overflow raises."""
+    xs, Ps, mu, PI, Fs, Qs, H, R = two_mode_problem()
+    zs = np.zeros((3, H.shape[0]))
+    base = dict(zs=zs, xs0=xs, Ps0=Ps, mu0=mu, PI=PI, Fs=Fs, Qs=Qs, H=H, R=R)
+    for name, bad in (("xs0", np.full_like(xs, np.nan)), ("Ps0", -Ps), ("mu0", mu * 0.5),
+                      ("xs0", xs[:, :0]), ("mu0", np.r_[mu, 0.0])):
+        with pytest.raises(ValueError, match=name):
+            imm_filter_run(**{**base, name: bad})
+    with pytest.raises(ValueError, match="overflows|no mode has positive probability"):
+        imm_filter_run(**{**base, "zs": np.full((3, H.shape[0]), 1e300)})
+    with pytest.raises(ValueError, match="overflows"):
+        imm_combine(mu, xs + 1e300 * np.arange(len(mu))[:, None], Ps)

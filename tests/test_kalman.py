@@ -290,3 +290,31 @@ def test_batch_edge_cases_and_bad_input():
     with pytest.raises(ValueError, match="not positive definite at scan 0 of run 0"):
         kalman_filter_batch(np.zeros((2, 3, 2)), np.zeros(4), np.zeros((4, 4)), np.eye(4),
                             np.zeros((4, 4)), H, np.zeros((2, 2)))
+
+
+# ---------------------------------------------------------------- overflow (issue 17)
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_overflowing_results_raise_instead_of_inf():
+    x, P = np.array([1.0, 2.0, 0.5, 0.1]), np.eye(4)
+    F, Q, H, R = cv_transition(1.0), cv_process_noise(1.0, 0.5), position_matrix(), np.eye(2)
+    with pytest.raises(ValueError, match="overflows"):
+        kf_predict(x, P, F * 1e300, Q)
+    with pytest.raises(ValueError, match="overflows"):
+        kf_update(x, P, [1e300, 0.0], H, R)
+    with pytest.raises(ValueError, match="overflows"):
+        ekf_update(x, P, [1e300, 0.0], H @ x, H, R)
+    zs = np.ones((5, 2))
+    with pytest.raises(ValueError, match="overflows"):
+        kalman_filter_run(zs * 1e300, x, P, F, Q, H, R)
+    zs[2] = np.nan  # a missed scan: the NIS there is NaN, everything else finite
+    run = kalman_filter_run(zs, x, P, F, Q, H, R)
+    assert np.isnan(run.nis[2]) and np.all(np.isfinite(np.delete(run.nis, 2)))
+    assert np.all(np.isfinite(run.xs)) and np.all(np.isfinite(run.loglik))
+
+
+def test_angle_index_must_be_integers():
+    x, P = np.array([100.0, 50.0, 1.0, 1.0]), np.eye(4)
+    z_pred, Hj = range_bearing(x), range_bearing_jacobian(x)
+    for bad in (True, "1", 1.0, [[1]]):
+        with pytest.raises(TypeError, match="angle_index"):
+            ekf_update(x, P, z_pred, z_pred, Hj, np.eye(2), angle_index=bad)

@@ -334,3 +334,85 @@ def test_kernels_callable_from_numba():
     for k in range(4):
         assert got[k, 0] == pytest.approx(_brute_ospa(Xs[k], Ys[k], 1.5, 2), abs=1e-12)
         assert got[k, 1] == pytest.approx(_brute_gospa(Xs[k], Ys[k], 1.5, 2, 2), abs=1e-12)
+
+
+# --------------------------------------------------------------------------- scale (issue 17)
+def test_ospa_scaled_form_equals_plain_powers():
+    """The scaled form (used for large p or extreme c) gives the plain form's values."""
+    from trackcore.metrics import _ospa_scaled_kernel, ospa_kernel
+    rng = np.random.default_rng(17)
+    for _ in range(200):
+        X = rng.uniform(0, 5, (rng.integers(0, 5), 2))
+        Y = rng.uniform(0, 5, (rng.integers(0, 5), 2))
+        for p in (1.0, 2.0, 3.5):
+            a = ospa_kernel(X, Y, 3.0, p)
+            b = _ospa_scaled_kernel(X, Y, 3.0, p)
+            np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-13)
+
+
+@pytest.mark.parametrize("p", [1.0, 2.0, 25.0, 300.0, 1e300])
+def test_ospa_scales_with_the_coordinates(p):
+    rng = np.random.default_rng(int(min(p, 1e3)))
+    X, Y = rng.uniform(0, 5, (3, 2)), rng.uniform(0, 5, (4, 2))
+    ref = ospa(X, Y, 3.0, p)
+    assert all(math.isfinite(v) for v in ref)
+    for s in (1e-200, 1e200):
+        got = ospa(s * X, s * Y, s * 3.0, p)
+        np.testing.assert_allclose(np.array(got) / s, np.array(ref), rtol=1e-9)
+
+
+def test_ospa_large_p_tends_to_the_largest_assigned_distance():
+    X = np.array([[0.0, 0.0], [10.0, 0.0]])
+    Y = np.array([[0.0, 1.0], [10.0, 3.0]])
+    assert ospa(X, Y, 50.0, 1e4).distance == pytest.approx(3.0, rel=1e-3)
+    assert ospa(X, Y, 50.0, 1e300).distance == pytest.approx(3.0, rel=1e-12)
+    assert ospa(X, Y, 50.0, np.inf).distance == pytest.approx(3.0)
+
+
+def test_gospa_large_p_and_unrepresentable_components():
+    from trackcore.metrics import _gospa_scaled, gospa_kernel
+    rng = np.random.default_rng(3)
+    for _ in range(100):
+        X = rng.uniform(0, 5, (rng.integers(0, 4), 2))
+        Y = rng.uniform(0, 5, (rng.integers(0, 4), 2))
+        for alpha in (2.0, 1.0):
+            a = gospa_kernel(X, Y, 2.0, 3.0, alpha)
+            b = _gospa_scaled(X, Y, 2.0, 3.0, alpha)
+            np.testing.assert_allclose(b[:4], a[:4], rtol=1e-10, atol=1e-12)
+            assert tuple(b[4:]) == tuple(a[4:])
+    X = np.array([[0.0, 0.0], [1.0, 1.0]])
+    Y = np.array([[0.5, 0.0], [1.0, 1.2]])
+    r = gospa(X, Y, 1.0, 300.0)
+    assert r.distance == pytest.approx(0.5 * (1 + 0.4 ** 300) ** (1 / 300), rel=1e-12)
+    for c, p in ((100.0, 300.0), (1e300, 2.0), (1e-300, 2.0)):
+        with pytest.raises(ValueError, match="distance\\*\\*p"):
+            gospa(X, Y, c, p)
+
+
+@pytest.mark.parametrize("bad", [np.nan, -np.inf, 0.5, -1.0])
+def test_set_metric_order_rejected(bad):
+    for f in (ospa, gospa):
+        with pytest.raises(ValueError, match="p must"):
+            f([[0.0, 0.0]], [[1.0, 1.0]], 5.0, bad)
+    for c in (np.nan, np.inf, 0.0, -1.0):
+        for f in (ospa, gospa):
+            with pytest.raises(ValueError, match="c must"):
+                f([[0.0, 0.0]], [[1.0, 1.0]], c, 2.0)
+
+
+def test_rmse_and_quadratic_forms_at_extreme_scales():
+    est = np.array([[1e300, 0.0], [0.0, 1e300]])
+    truth = np.zeros(2)
+    np.testing.assert_allclose(rmse(est, truth), [1e300 / math.sqrt(2)] * 2, rtol=1e-12)
+    assert position_rmse(est, truth, dim=2, axis=None) == pytest.approx(1e300, rel=1e-12)
+    assert rmse([[1.0, 2.0]], [[0.0, 0.0]]).tolist() == [1.0, 2.0]   # unchanged in range
+    with pytest.raises(ValueError, match="overflows"):
+        nees([1e300, 0.0], np.eye(2))
+    with pytest.raises(ValueError, match="overflows"):
+        nis([1e200], [[1e-200]])
+
+
+def test_chi2_bounds_tiny_alpha_is_finite():
+    lo, hi = chi2_bounds(2, 50, 1e-300)
+    assert 0.0 <= lo < 2.0 < hi < np.inf
+    assert chi2_bounds(2, 50) == (chi2.ppf(0.025, 100) / 50, chi2.ppf(0.975, 100) / 50)

@@ -11,7 +11,8 @@ from trackcore.models import (converted_measurement_covariance, coordinated_turn
                               kron_axes, polar_to_cartesian, position_matrix, range_bearing,
                               range_bearing_doppler, range_bearing_doppler_jacobian,
                               range_bearing_jacobian, singer_process_noise, singer_transition,
-                              van_loan_discretize, wrap_angle, wrap_angle_kernel)
+                              van_loan_discretize, wrap_angle)
+from trackcore.models.measurement import wrap_angle_kernel
 
 
 # ---------------------------------------------------------------- motion
@@ -284,3 +285,39 @@ def test_polar_conversion():
                                J @ np.diag([sr**2, sb**2]) @ J.T, rtol=1e-6)
     with pytest.raises(ValueError, match="sigma_r"):
         converted_measurement_covariance(1.0, 0.0, -1.0, 0.1)
+
+
+# ---------------------------------------------------------------- extreme scales (issue 17)
+def test_range_bearing_far_and_near_states_are_finite():
+    X = np.array([[1e300, 2e300, 0.0, 0.0], [3e-300, -4e-300, 0.0, 0.0], [30.0, 40.0, 1.0, 2.0]])
+    z = range_bearing(X)
+    np.testing.assert_allclose(z[:, 0], [math.hypot(1, 2) * 1e300, 5e-300, 50.0], rtol=1e-15)
+    np.testing.assert_allclose(z[:, 1], np.arctan2(X[:, 1], X[:, 0]), rtol=1e-15)
+    # the usual rows keep the kernel's bits
+    assert np.array_equal(z[2], range_bearing(X[2]))
+    J = range_bearing_jacobian(X)
+    for i in range(3):
+        r = math.hypot(X[i, 0], X[i, 1])
+        np.testing.assert_allclose(J[i, 0, :2], X[i, :2] / r, rtol=1e-14)
+        np.testing.assert_allclose(J[i, 1, :2] * r, [-X[i, 1] / r, X[i, 0] / r], rtol=1e-14)
+    d = range_bearing_doppler(X)
+    np.testing.assert_allclose(d[:, 0], z[:, 0], rtol=1e-15)
+    np.testing.assert_allclose(d[2, 2], (30 * 1 + 40 * 2) / 50.0, rtol=1e-15)
+    Jd = range_bearing_doppler_jacobian(X[[0, 2]])
+    assert np.all(np.isfinite(Jd))
+    np.testing.assert_allclose(Jd[1], range_bearing_doppler_jacobian(X[2]), rtol=1e-15)
+    with pytest.raises(ValueError, match="zero range"):
+        range_bearing_jacobian(np.zeros(4))
+
+
+def test_overflowing_models_raise():
+    with pytest.raises(ValueError, match="T and q"):
+        cv_process_noise(1e300, 1.0)
+    with pytest.raises(ValueError, match="T, tau and sigma_m"):
+        singer_process_noise(1.0, 20.0, 1e300)
+    with pytest.raises(ValueError, match="A and T"):
+        van_loan_discretize(np.array([[0.0, 1.0], [0.0, 1e300]]), np.eye(2), 1.0)
+    with pytest.raises(ValueError, match="omega \\* T"):
+        coordinated_turn_transition(1e300, 1e300)
+    with pytest.raises(ValueError, match="r, sigma_r and sigma_bearing"):
+        converted_measurement_covariance(1e300, 0.3, 1.0, 1.0)

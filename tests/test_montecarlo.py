@@ -188,3 +188,14 @@ def test_stack_results():
         stack_results([np.ones(2), np.ones(3)])
     with pytest.raises(TypeError, match="results"):
         stack_results(np.ones(3))
+
+
+def test_counts_beyond_64_bits_are_value_errors():
+    with pytest.raises(ValueError, match="n_runs must fit"):
+        run(lambda rng: 0, 2**70, 1)
+    with pytest.raises(ValueError, match="max_workers must fit"):
+        process_pool(2**70)
+    with pytest.raises(ValueError, match="max_workers must be at most 1024"):
+        process_pool(2**40)
+    with pytest.raises(ValueError, match="n_runs must be an integer of magnitude"):
+        default_chunksize(1e300)

@@ -600,3 +600,49 @@ def test_kernels_link_into_a_fresh_callers_kernel(tmp_path):
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          timeout=300)
     assert res.returncode == 0, res.stderr[-2000:]
+
+
+# ---------------------------------------------------------------- non-finite (issue 17)
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_bootstrap_far_particle_gets_zero_weight_never_nan():
+    F, L = cv(), dwna(1.0, 0.5)[1]
+    rng = np.random.default_rng(0)
+    for model, z, R in (("range_bearing", np.array([120.0, 0.4]), np.diag([25.0, 1e-3])),
+                        ("position", np.array([100.0, 50.0]), 4.0 * np.eye(2))):
+        X = np.array([100.0, 50.0, 1.0, 0.5]) + rng.normal(0, 5, (50, 4))
+        X[3, :2] = [1e300, -1e300]
+        res = bootstrap_step(X, np.zeros(50), F, L, z, R, rng, model, ess_threshold=0.0)
+        assert res.logw[3] == -np.inf and np.all(np.isfinite(np.delete(res.logw, 3)))
+        assert math.isfinite(res.ess) and math.isfinite(res.log_evidence)
+        res = bootstrap_step(X, np.zeros(50), F, L, z, R, rng, model)  # resampled away
+        assert np.all(np.isfinite(res.logw)) and np.all(np.abs(res.particles) < 1e6)
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_bootstrap_raises_when_no_particle_has_likelihood():
+    F, L = cv(), dwna(1.0, 0.5)[1]
+    X = np.full((10, 4), 1e300)
+    with pytest.raises(ValueError, match="every particle has likelihood zero"):
+        bootstrap_step(X, np.zeros(10), F, np.zeros((4, 0)), [1.0, 0.5], np.eye(2),
+                       np.random.default_rng(1))
+    with pytest.raises(ValueError, match="overflow"):
+        bootstrap_step(np.full((10, 4), 1e308), np.zeros(10), 10.0 * F, L, [], np.eye(2),
+                       np.random.default_rng(1))
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_logliks_are_minus_inf_not_nan_and_weights_skip_zero_mass():
+    X = np.array([[1e300, -1e300, 0.0, 0.0], [10.0, 10.0, 0.0, 0.0]])
+    for ll in (loglik_range_bearing(X, [14.0, 0.8], np.diag([4.0, 0.01])),
+               loglik_gaussian_position(X, [10.0, 10.0], np.eye(2))):
+        assert ll[0] == -np.inf and math.isfinite(ll[1])
+    m, P = weighted_mean_cov(X, [-np.inf, 0.0])
+    np.testing.assert_array_equal(m, X[1])
+    assert np.all(P == 0.0)
+    with pytest.raises(ValueError, match="overflows"):
+        weighted_mean_cov(X, [0.0, 0.0])
+    with pytest.raises(ValueError, match="overflows"):
+        propagate_linear(np.full((3, 4), 1e308), 10.0 * cv(), np.zeros((4, 4)),
+                         np.random.default_rng(0))
+    idx = systematic_resample(np.array([1e308, 1e308, 1e308]), np.random.default_rng(0))
+    assert sorted(idx.tolist()) == [0, 1, 2]

@@ -100,3 +100,16 @@ def test_paper_vs_ours_table():
         paper_vs_ours_table([(1, 2)])
     with pytest.raises(TypeError, match="rows"):
         paper_vs_ours_table(5)
+
+
+def test_plot_inputs_checked_before_drawing(ax):
+    """Issue 17: a one-column state array was an IndexError; bad shade/styles clear errors."""
+    t = np.arange(5.0)
+    with pytest.raises(ValueError, match="truth must be an \\(n_steps, n\\) state array"):
+        plot_tracks_2d(ax, np.zeros((5, 1)), np.zeros((5, 4)))
+    with pytest.raises(ValueError, match="measurements\\[0\\] must be \\(m, 2\\)"):
+        plot_tracks_2d(ax, np.zeros((5, 4)), np.zeros((5, 4)), measurements=[np.zeros((2, 3))])
+    with pytest.raises(TypeError, match="shade"):
+        plot_rmse_vs_time(ax, t, {"KF": t}, shade=[1.0])
+    with pytest.raises(TypeError, match="styles"):
+        plot_rmse_vs_time(ax, t, {"KF": t}, styles=[("KF", {})])

@@ -12,12 +12,22 @@ Conventions
   set), like Stone Soup's ``compute_gospa_metric(measured_states, truth_states)``.
 * OSPA :cite:p:`schuhmacher2008ospa` minimises
   :math:`\\sum \\min(d, c)^p` exactly with a numba Hungarian algorithm
-  (:func:`min_cost_assignment_kernel`, checked against
-  ``scipy.optimize.linear_sum_assignment`` in the tests); ``ospa_kernel`` and
-  ``gospa_kernel`` can be called from other numba kernels.
+  (``min_cost_assignment_kernel``, checked against
+  ``scipy.optimize.linear_sum_assignment`` in the tests).  The numba kernels
+  (``ospa_kernel``, ``gospa_kernel``, ``min_cost_assignment_kernel``) serve other
+  kernels and are not public.
   GOSPA :cite:p:`rahmathullah2017gospa` uses the same assignment; its components
   (localisation, missed, false) are reported, as in Stone Soup, in units of
   distance to the power ``p`` so that ``distance**p = localisation + missed + false``.
+* Scale: for the usual orders (``p <= 20``) and cut-offs ``c`` in ``[1e-100, 1e100]``
+  whose ``c**p`` lies well inside the floating-point range, the powers are taken as
+  written.  Otherwise both metrics are computed in a scaled form (coordinate
+  differences divided by ``c`` before they are squared, capped distances divided by
+  the bottleneck of the assignment before the power, sums in log space), so that no
+  square or power overflows or underflows and every call returns (a power that
+  overflows would turn the assignment costs into ``inf`` and stall the assignment).
+  GOSPA's components are themselves powers of distances; when ``c**p / alpha`` is not
+  representable they raise ``ValueError``.
 """
 from __future__ import annotations
 
@@ -28,7 +38,7 @@ import numba as nb
 import numpy as np
 from scipy.stats import chi2
 
-from .core.validation import as_array, as_int, as_positive, as_scalar
+from .core.validation import as_array, as_int, as_positive, as_scalar, finite_result
 
 __all__ = [
     "rmse",
@@ -43,9 +53,6 @@ __all__ = [
     "ospa",
     "gospa",
     "cardinality_error",
-    "ospa_kernel",
-    "gospa_kernel",
-    "min_cost_assignment_kernel",
 ]
 
 
@@ -83,7 +90,19 @@ def rmse(est, truth, axis=0):
     if err.size == 0:
         raise ValueError("est must not be empty")
     axis = _check_axis(axis, err.ndim)
-    return np.sqrt(np.mean(err * err, axis=axis))
+    with np.errstate(over="ignore"):
+        out = np.sqrt(np.mean(err * err, axis=axis))
+    return _rescaled_if_overflow(out, err, lambda e: np.sqrt(np.mean(e * e, axis=axis)))
+
+
+def _rescaled_if_overflow(out, err, f):
+    """``f(err)`` is positively homogeneous of degree 1: when squaring overflowed, compute
+    it on ``err / s`` and multiply by ``s`` (``s`` the largest error)."""
+    if np.all(np.isfinite(out)):
+        return out
+    s = float(np.max(np.abs(err)))
+    out = f(err / s) * s
+    return finite_result(out, "the RMSE", "est and truth")
 
 
 def _norm_rmse(est, truth, start, dim, axis, what):
@@ -95,11 +114,17 @@ def _norm_rmse(est, truth, start, dim, axis, what):
             f"{what} with dim={dim}, got shape {err.shape}")
     if err.size == 0:
         raise ValueError("est must not be empty")
-    sq = np.sum(err[..., start:start + dim] ** 2, axis=-1)
-    if sq.ndim == 0:
-        return float(np.sqrt(sq))
-    axis = _check_axis(axis, sq.ndim)
-    return np.sqrt(np.mean(sq, axis=axis))
+    part = err[..., start:start + dim]
+
+    def f(e):
+        sq = np.sum(e ** 2, axis=-1)
+        return float(np.sqrt(sq)) if sq.ndim == 0 else np.sqrt(np.mean(sq, axis=axis))
+
+    if part.ndim > 1:
+        axis = _check_axis(axis, part.ndim - 1)
+    with np.errstate(over="ignore"):
+        out = f(part)
+    return _rescaled_if_overflow(out, part, f)
 
 
 def position_rmse(est, truth, dim=2, axis=0):
@@ -146,8 +171,10 @@ def _quadratic_form(e, M, e_name, M_name):
     eb = np.broadcast_to(e, batch + (n,))
     Lb = np.broadcast_to(L, batch + (n, n))
     # Solve L y = e; the quadratic form is ||y||^2.
-    y = np.linalg.solve(Lb, eb[..., None])[..., 0]
-    out = np.sum(y * y, axis=-1)
+    with np.errstate(all="ignore"):
+        y = np.linalg.solve(Lb, eb[..., None])[..., 0]
+        out = np.sum(y * y, axis=-1)
+    finite_result(out, f"the quadratic form of {e_name}", f"{e_name} and {M_name}")
     return float(out) if out.ndim == 0 else out
 
 
@@ -182,8 +209,11 @@ def chi2_bounds(dof, n_runs, alpha=0.05):
         raise ValueError(f"alpha must be in (0, 1), got {alpha}")
     k = n_runs * dof
     lo = float(chi2.ppf(alpha / 2.0, k)) / n_runs
-    hi = float(chi2.ppf(1.0 - alpha / 2.0, k)) / n_runs
-    return lo, hi
+    if 1.0 - alpha / 2.0 < 1.0:
+        hi = float(chi2.ppf(1.0 - alpha / 2.0, k)) / n_runs
+    else:  # alpha / 2 below the rounding of 1: the upper tail directly
+        hi = float(chi2.isf(alpha / 2.0, k)) / n_runs
+    return finite_result((lo, hi), "the chi-square bounds", "dof, n_runs and alpha")
 
 
 # --------------------------------------------------------------------------- set metrics
@@ -243,6 +273,25 @@ def _order(p, name="p"):
     if np.isnan(p) or p < 1.0:
         raise ValueError(f"{name} must be >= 1, got {p}")
     return p
+
+
+#: the powers are taken as written while p <= _P_PLAIN and c**p lies in this range
+_P_PLAIN = 20.0
+_POW_LO, _POW_HI = 1e-250, 1e250
+
+
+def _c_pow(c, p):
+    """``c**p`` as a float (``inf`` on overflow)."""
+    try:
+        return c ** p
+    except OverflowError:
+        return math.inf
+
+
+def _plain_powers(c, p) -> bool:
+    """The powers and squared distances are taken as written: moderate ``p``, and ``c``
+    (so the capped distances) far from both ends of the floating-point range."""
+    return p <= _P_PLAIN and 1e-100 <= c <= 1e100 and _POW_LO <= _c_pow(c, p) <= _POW_HI
 
 
 @nb.njit(cache=True)
@@ -360,6 +409,116 @@ def _bottleneck_kernel(D):
 
 
 @nb.njit(cache=True)
+def _bottleneck_rect_kernel(T):
+    """Smallest achievable largest entry when every row of ``T`` (r, k), ``r <= k``,
+    is assigned a distinct column."""
+    r, k = T.shape
+    values = np.unique(T.ravel())
+    lo, hi = 0, values.shape[0] - 1
+    over = np.empty((r, k))
+    cols = np.empty(r, dtype=np.int64)
+    while lo < hi:
+        mid = (lo + hi) // 2
+        for i in range(r):
+            for j in range(k):
+                over[i, j] = 1.0 if T[i, j] > values[mid] else 0.0
+        if min_cost_assignment_kernel(over, cols) == 0.0:
+            hi = mid
+        else:
+            lo = mid + 1
+    return values[lo]
+
+
+@nb.njit(cache=True)
+def _scaled_distances_kernel(A, B, c):
+    """``t = min(||a_i - b_j||, c) / c`` for the rows of A (r, d) and B (k, d), with the
+    differences divided by ``c`` before they are squared (no overflow for coordinates
+    near 1e300, no underflow for coordinates and ``c`` near 1e-300)."""
+    r, d = A.shape
+    k = B.shape[0]
+    T = np.empty((r, k))
+    for i in range(r):
+        for j in range(k):
+            s = 0.0
+            capped = False
+            for q in range(d):
+                e = (A[i, q] - B[j, q]) / c
+                if not abs(e) < 1.0:
+                    capped = True
+                    break
+                s += e * e
+            T[i, j] = 1.0 if capped or s >= 1.0 else math.sqrt(s)
+    return T
+
+
+@nb.njit(cache=True)
+def _scaled_assignment(X, Y, c, p, cols):
+    """The optimal assignment of the rows of ``X`` to those of ``Y`` (``1 <= m <= n``)
+    in the scaled form; writes it to ``cols`` (m,) and returns ``(b, S, T)``: the capped
+    distances over ``c``, ``T = min(d, c) / c``, their bottleneck ``b`` and
+    ``S = min_pi sum (t / b)^p``, so that ``min_pi sum min(d, c)^p = (c b)^p S``.
+    Every optimal assignment has its largest ``t / b >= 1``, so ``1 <= S <= m``: costs
+    above ``m + 1`` cannot be optimal and are capped there; no power overflows, and the
+    ones that underflow are below ``1e-308`` of the optimum."""
+    T = _scaled_distances_kernel(X, Y, c)
+    m, n = T.shape
+    b = _bottleneck_rect_kernel(T)
+    cost = np.empty((m, n))
+    if b == 0.0:
+        for i in range(m):
+            for j in range(n):
+                cost[i, j] = 0.0 if T[i, j] == 0.0 else 1.0
+        min_cost_assignment_kernel(cost, cols)
+        return 0.0, 0.0, T
+    cap = m + 1.0
+    lcap = math.log(cap)
+    for i in range(m):
+        for j in range(n):
+            u = T[i, j] / b
+            if u == 0.0:
+                cost[i, j] = 0.0
+            else:
+                e = p * math.log(u)
+                cost[i, j] = cap if e >= lcap else math.exp(e)
+    S = min_cost_assignment_kernel(cost, cols)
+    return b, S, T
+
+
+def _log_add(terms):
+    top = max(terms)
+    return top + math.log(sum(math.exp(t - top) for t in terms))
+
+
+@nb.njit(cache=True)
+def _ospa_scaled_kernel(X, Y, c, p):
+    """:func:`ospa_kernel` for finite ``p`` in the scaled form (any ``c``, any ``p``)."""
+    m = X.shape[0]
+    n = Y.shape[0]
+    if m > n:
+        X, Y = Y, X
+        m, n = n, m
+    if n == 0:
+        return 0.0, 0.0, 0.0
+    card = c * math.exp(math.log((n - m) / n) / p) if n > m else 0.0
+    if m == 0:
+        return c, 0.0, c
+    cols = np.empty(m, dtype=np.int64)
+    b, S, _ = _scaled_assignment(X, Y, c, p, cols)
+    if b == 0.0:
+        return card, 0.0, card
+    # log of the p-th powers divided by c^p: localisation and cardinality
+    a_loc = p * math.log(b) + math.log(S) - math.log(n)
+    loc = c * math.exp(a_loc / p)
+    if n > m:
+        a_card = math.log((n - m) / n)
+        top = max(a_loc, a_card)
+        a_tot = top + math.log(math.exp(a_loc - top) + math.exp(a_card - top))
+    else:
+        a_tot = a_loc
+    return c * math.exp(a_tot / p), loc, card
+
+
+@nb.njit(cache=True)
 def ospa_kernel(X, Y, c, p):
     """OSPA ``(distance, localisation, cardinality)`` for valid float64 ``(m, d)``/``(n, d)``
     point arrays, ``c > 0`` and ``p >= 1`` (``inf`` allowed).  Callable from other kernels."""
@@ -440,8 +599,17 @@ def ospa(X, Y, c, p=1):
     c = as_positive(c, "c")
     p = _order(p)
     X, Y = _point_sets(X, Y)
-    dist, loc, card = ospa_kernel(X, Y, c, p)
-    return OSPAResult(float(dist), float(loc), float(card))
+    if p == math.inf or _plain_powers(c, p):
+        dist, loc, card = ospa_kernel(X, Y, c, p)
+    else:
+        dist, loc, card = _ospa_scaled_kernel(X, Y, c, p)
+    return OSPAResult(*_finite_set_metric((float(dist), float(loc), float(card)), c))
+
+
+def _finite_set_metric(values, c):
+    """Set-metric values scale with ``c``; distances between points ``1e300`` apart
+    can still overflow the point differences themselves."""
+    return finite_result(values, "the set metric", "X, Y and c")
 
 
 def gospa(X, Y, c, p=2, alpha=2):
@@ -468,10 +636,53 @@ def gospa(X, Y, c, p=2, alpha=2):
     alpha = as_scalar(alpha, "alpha")
     if not 0.0 < alpha <= 2.0:
         raise ValueError(f"alpha must be in (0, 2], got {alpha}")
+    unit = _c_pow(c, p) / alpha
+    if not 1e-300 <= unit <= 1e300:
+        raise ValueError(f"GOSPA's components are in units of distance**p, and c**p / alpha "
+                         f"= {unit:.3g} for c={c!r}, p={p!r}, alpha={alpha!r} is not "
+                         "representable; rescale the coordinates (and c) or lower p")
     X, Y = _point_sets(X, Y)
-    dist, loc, missed, false, n_missed, n_false = gospa_kernel(X, Y, c, p, alpha)
-    return GOSPAResult(float(dist), float(loc), float(missed), float(false), int(n_missed),
-                       int(n_false))
+    if _plain_powers(c, p):
+        dist, loc, missed, false, n_missed, n_false = gospa_kernel(X, Y, c, p, alpha)
+    else:
+        dist, loc, missed, false, n_missed, n_false = _gospa_scaled(X, Y, c, p, alpha)
+    vals = finite_result((float(dist), float(loc), float(missed), float(false)),
+                         "the GOSPA metric", "X, Y, c and p")
+    return GOSPAResult(*vals, int(n_missed), int(n_false))
+
+
+def _gospa_scaled(X, Y, c, p, alpha):
+    """:func:`gospa_kernel` in the scaled form: the assignment of
+    :func:`_scaled_assignment`, the distance ``c (S_t + (n - m) / alpha)^(1/p)`` from
+    logarithms (``S_t`` the optimal sum of ``(min(d, c) / c)^p``), the components as
+    powers (each representable, since ``c**p / alpha`` is)."""
+    nx, ny = X.shape[0], Y.shape[0]
+    A, B = (X, Y) if nx <= ny else (Y, X)
+    m, n = A.shape[0], B.shape[0]
+    unit = _c_pow(c, p) / alpha
+    loc = 0.0
+    n_cut = 0
+    terms = []
+    if m:
+        cols = np.empty(m, dtype=np.int64)
+        b, S, T = _scaled_assignment(A, B, c, p, cols)
+        for i in range(m):
+            t = float(T[i, cols[i]])
+            if alpha == 2.0 and t >= 1.0:
+                n_cut += 1
+            elif t > 0.0:
+                loc += math.exp(p * (math.log(t) + math.log(c)))
+        if b > 0.0:
+            terms.append(p * math.log(b) + math.log(S))
+    if n > m:
+        terms.append(math.log((n - m) / alpha))
+    dist = c * math.exp(_log_add(terms) / p) if terms else 0.0
+    n_assigned = m - n_cut
+    if alpha == 2.0:
+        n_missed, n_false = ny - n_assigned, nx - n_assigned
+    else:
+        n_missed, n_false = max(ny - nx, 0), max(nx - ny, 0)
+    return dist, loc, unit * n_missed, unit * n_false, n_missed, n_false
 
 
 # --------------------------------------------------------------------------- cardinality

@@ -56,6 +56,8 @@ logger = logging.getLogger("trackcore.montecarlo")
 
 #: Target number of tasks a run is split into on an executor.
 _TARGET_TASKS = 32
+#: Largest process pool :func:`process_pool` makes (its workers all start at once).
+_MAX_WORKERS = 1024
 
 
 def _fresh_seed(seed):
@@ -88,13 +90,18 @@ def process_pool(max_workers=None, start_method="forkserver"):
     """A ``ProcessPoolExecutor`` whose workers do not ``fork()`` this process.
 
     ``start_method`` is ``"forkserver"`` (default) or ``"spawn"``; both are safe
-    after numba has started OpenMP threads (see the module docstring).  Use as a
+    after numba has started OpenMP threads (see the module docstring).
+    ``max_workers`` is at most 1024 (such a pool starts all its workers at its
+    first task).  Use as a
     context manager: ``with process_pool(2) as ex: run(trial, n, seed, executor=ex)``.
     """
     if start_method not in ("forkserver", "spawn"):
         raise ValueError(f"start_method must be 'forkserver' or 'spawn', got {start_method!r}")
     if max_workers is not None:
         max_workers = as_int(max_workers, "max_workers", minimum=1)
+        if max_workers > _MAX_WORKERS:
+            # a forkserver/spawn pool starts all its workers at the first submit
+            raise ValueError(f"max_workers must be at most {_MAX_WORKERS}, got {max_workers}")
     return ProcessPoolExecutor(max_workers=max_workers,
                                mp_context=multiprocessing.get_context(start_method))
 

@@ -93,9 +93,18 @@ def plot_rmse_vs_time(ax, t, curves, shade=None, *, xlabel="time [s]", ylabel="R
     t = _as_float_array(t, "t", ndim=1)
     if not isinstance(curves, dict) or not curves:
         raise TypeError("curves must be a non-empty dict {label: values}")
+    if styles is not None and not isinstance(styles, dict):
+        raise TypeError(f"styles must be a dict {{label: Axes.plot keywords}}, "
+                        f"got {type(styles).__name__}")
     styles = styles or {}
+    intervals = []
+    if shade is not None:
+        try:
+            intervals = [(float(a), float(b)) for a, b in shade]
+        except (TypeError, ValueError):
+            raise TypeError("shade must be a list of (start, stop) pairs of numbers") from None
     first = True
-    for a, b in (shade or ()):
+    for a, b in intervals:
         if not (np.isfinite(a) and np.isfinite(b) and a <= b):
             raise ValueError(f"shade intervals must be finite (start, stop) with start <= stop, "
                              f"got {(a, b)}")
@@ -122,15 +131,27 @@ def plot_tracks_2d(ax, truth, estimates, measurements=None, *, units="m"):
     """
     _check_ax(ax)
 
+    def track(a, name):
+        arr = _as_float_array(a, name, ndim=2)
+        if arr.shape[1] < 2:
+            raise ValueError(f"{name} must be an (n_steps, n) state array with n >= 2 "
+                             f"([x, y, ...]), got shape {arr.shape}")
+        return arr
+
     def tracks(obj, name):
         if isinstance(obj, (list, tuple)):
-            return [_as_float_array(a, f"{name}[{i}]", ndim=2) for i, a in enumerate(obj)]
-        return [_as_float_array(obj, name, ndim=2)]
+            return [track(a, f"{name}[{i}]") for i, a in enumerate(obj)]
+        return [track(obj, name)]
 
     if measurements is not None:
         if isinstance(measurements, (list, tuple)):
-            scans = [_as_float_array(z, f"measurements[{k}]").reshape(-1, 2)
-                     for k, z in enumerate(measurements)]
+            scans = []
+            for k, z in enumerate(measurements):
+                zk = _as_float_array(z, f"measurements[{k}]", ndim=(1, 2))
+                if zk.size and zk.shape[-1] != 2:
+                    raise ValueError(f"measurements[{k}] must be (m, 2) Cartesian points, "
+                                     f"got shape {zk.shape}")
+                scans.append(zk.reshape(-1, 2))
             pts = np.concatenate(scans) if scans else np.zeros((0, 2))
         else:
             pts = _as_float_array(measurements, "measurements", ndim=2)

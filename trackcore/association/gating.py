@@ -8,6 +8,9 @@ with ``d`` degrees of freedom, a target-originated measurement lies in the
 gate with probability ``P_G = pg`` (Bar-Shalom & Li).  The gate volume is
 ``V = c_d gamma^{d/2} |S|^{1/2}`` with ``c_d = pi^{d/2} / Gamma(d/2 + 1)``
 the volume of the unit ball in ``d`` dimensions.
+
+``mahalanobis_gate_kernel`` is the numba kernel behind :func:`mahalanobis_gate`
+for the trackers' kernels; it assumes valid input and is not public.
 """
 from __future__ import annotations
 
@@ -17,7 +20,8 @@ import numba as nb
 import numpy as np
 from scipy import special, stats
 
-from ..core.validation import as_covariance, as_int, as_measurements, as_nonnegative, as_probability, as_vector
+from ..core.validation import (as_covariance, as_int, as_measurements, as_nonnegative,
+                               as_probability, as_vector, finite_result)
 from ..filters.kalman import cholesky_lower_kernel
 from ..models.measurement import wrap_angle_kernel
 
@@ -27,7 +31,6 @@ __all__ = [
     "unit_ball_volume",
     "gate_volume",
     "mahalanobis_gate",
-    "mahalanobis_gate_kernel",
 ]
 
 
@@ -68,7 +71,11 @@ def gate_volume(gamma, S):
     if d == 0:
         raise ValueError("S must not be empty")
     sign, logdet = np.linalg.slogdet(S)
-    return float(unit_ball_volume(d) * gamma ** (0.5 * d) * math.exp(0.5 * logdet))
+    try:
+        v = float(unit_ball_volume(d) * gamma ** (0.5 * d) * math.exp(0.5 * logdet))
+    except OverflowError:
+        v = math.inf
+    return finite_result(v, "the gate volume", "gamma and S")
 
 
 @nb.njit(cache=True)
@@ -128,4 +135,5 @@ def mahalanobis_gate(z, z_pred, S, gamma, angle_index=None):
     mask = np.zeros(m, dtype=np.bool_)
     d2 = np.empty(m)
     mahalanobis_gate_kernel(z, z_pred, L, float(gamma), ai, mask, d2)
+    finite_result(d2, "the squared Mahalanobis distance", "z, z_pred and S")
     return mask, d2

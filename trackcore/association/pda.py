@@ -17,7 +17,10 @@ State update with the combined innovation ``nu = sum_j beta_j nu_j``:
     P = beta_0 P_pred + (1 - beta_0) P_c + K (sum_j beta_j nu_j nu_j^T - nu nu^T) K^T
 
 with ``K`` and ``P_c`` the Kalman gain and (Joseph-form) updated covariance of
-:func:`trackcore.filters.kf_update_kernel`, which this module calls.
+the Kalman update kernel (``trackcore.filters.kalman.kf_update_kernel``), which
+this module calls.  The numba kernels here (``pda_betas_kernel``,
+``pda_update_kernel``) serve the trackers' kernels; they assume valid input and
+are not public.
 """
 from __future__ import annotations
 
@@ -28,17 +31,16 @@ import numba as nb
 import numpy as np
 
 from ..core.validation import (as_array, as_covariance, as_int, as_matrix, as_measurements,
-                               as_nonnegative, as_positive, as_probability, as_scalar, as_vector)
+                               as_nonnegative, as_positive, as_probability, as_scalar, as_vector,
+                               finite_result)
 from ..filters.kalman import kf_update_kernel
 from ..models.measurement import wrap_angle_kernel
 
 __all__ = [
     "PDAUpdate",
     "pda_betas",
-    "pda_betas_kernel",
     "pda_log_likelihood",
     "pda_update",
-    "pda_update_kernel",
 ]
 
 _BETA_SUM_TOL = 1e-9
@@ -160,9 +162,18 @@ def pda_log_likelihood(lik=None, pd=1.0, pg=1.0, clutter_density=None, *, log_li
                        mode="parametric", volume=None, log_clutter_density=None):
     """``log(lambda (1 - P_D P_G) + P_D sum_j L_j)``: the PDA measurement
     likelihood of a scan up to a factor common to all models at that scan
-    (the IMM-PDAF mode likelihood).  ``-inf`` when it is zero."""
+    (the IMM-PDAF mode likelihood).  ``-inf`` when it is zero.
+
+    In the nonparametric form ``lambda = m / V``; the scan's likelihood with
+    the diffuse clutter prior is ``V^-m (1 - P_D P_G) + V^(1-m) (P_D / m)
+    sum_j L_j``, which is the expression above times the common factor
+    ``V^-m (V / m)`` for ``m > 0``.  For an empty scan it is ``1 - P_D P_G``,
+    the probability of a missed detection, and that is what is returned (not
+    ``log 0``)."""
     ll, log_pd, log_miss, log_lam = _log_terms(lik, pd, pg, clutter_density, log_lik, mode,
                                                volume, log_clutter_density)
+    if mode == "nonparametric" and ll.shape[0] == 0:
+        return float(log_miss)
     betas = np.empty(ll.shape[0])
     _, log_norm = pda_betas_kernel(ll, log_pd, log_miss, log_lam, betas)
     return float(log_norm)
@@ -284,4 +295,6 @@ def pda_update(x_pred, P_pred, z, z_pred, H, R, betas, beta0, angle_index=None):
     if not ok:
         raise ValueError("innovation covariance S = H P_pred H^T + R is not positive definite "
                          "(check P_pred and R)")
+    for a in (x, P, nu, S, K):
+        finite_result(a, "the PDA update", "x_pred, P_pred, z, z_pred, H and R")
     return PDAUpdate(x, P, nu, S, K)

@@ -2,7 +2,13 @@
 
 Probabilities that can underflow travel as logarithms.  The ``*_kernel``
 functions are numba kernels for use inside other kernels; they assume valid,
-contiguous float64 input.
+contiguous float64 input and are not public (the package imports them from
+this module).
+
+``-inf`` is a weight of zero and is allowed wherever log-weights travel; NaN
+and ``+inf`` are not (a weight of infinity has no normalisation), and both
+:func:`logsumexp` and :func:`normalize_log_weights` reject them with a
+``ValueError``.
 """
 from __future__ import annotations
 
@@ -17,9 +23,6 @@ __all__ = [
     "logsumexp",
     "normalize_log_weights",
     "gaussian_logpdf",
-    "logsumexp_kernel",
-    "normalize_log_weights_kernel",
-    "cholesky_logpdf_kernel",
     "LOG_2PI",
 ]
 
@@ -61,15 +64,24 @@ def logsumexp(a, axis=None):
     """Stable ``log(sum(exp(a)))``; ``-inf`` entries are allowed (zero mass).
 
     With ``axis=None`` the whole array is reduced to a float; otherwise the
-    reduction runs along ``axis`` like :func:`scipy.special.logsumexp`.
+    reduction runs along ``axis`` like :func:`scipy.special.logsumexp`.  An
+    empty reduction, or one over ``-inf`` entries only, is ``-inf`` (the log
+    of a zero sum).  NaN and ``+inf`` entries raise ``ValueError``, as in
+    :func:`normalize_log_weights`: a term of infinite mass leaves nothing to
+    compare the others with.
     """
     arr = as_array(a, "a", finite=False)
-    if np.any(np.isnan(arr)):
-        raise ValueError("a must not contain NaN")
+    if np.any(np.isnan(arr)) or np.any(arr == np.inf):
+        raise ValueError("a must not contain NaN or +inf")
     if axis is None:
         return float(logsumexp_kernel(arr.ravel()))
+    if isinstance(axis, (bool, np.bool_)) or not isinstance(axis, (int, np.integer)):
+        raise TypeError(f"axis must be an integer or None, got {type(axis).__name__}")
+    if not -arr.ndim <= axis < arr.ndim:
+        raise ValueError(f"axis={axis} is out of range for an array with {arr.ndim} "
+                         "dimension(s)")
     moved = np.moveaxis(arr, axis, -1)
-    flat = np.ascontiguousarray(moved.reshape(-1, moved.shape[-1]))
+    flat = np.ascontiguousarray(moved.reshape(math.prod(moved.shape[:-1]), moved.shape[-1]))
     out = np.empty(flat.shape[0])
     for i in range(flat.shape[0]):
         out[i] = logsumexp_kernel(flat[i])

@@ -11,7 +11,7 @@ import numbers
 
 import numpy as np
 
-from .validation import as_count
+from .validation import as_count, as_int
 
 __all__ = ["spawn_seed_sequences", "spawn_generators", "generator_for_run", "make_rng"]
 
@@ -40,9 +40,14 @@ def spawn_generators(seed, n):
 def generator_for_run(seed, i, n):
     """The generator Monte Carlo run ``i`` of ``n`` gets (same as ``spawn_generators(seed, n)[i]``)."""
     n = as_count(n, "n")
+    i = as_int(i, "i")
     if not (0 <= i < n):
         raise ValueError(f"i must be in [0, {n}), got {i}")
-    return np.random.default_rng(_seed_sequence(seed).spawn(n)[i])
+    ss = _seed_sequence(seed)
+    if ss is seed:  # a caller's SeedSequence: spawn from it, as spawn_generators does
+        return np.random.default_rng(ss.spawn(n)[i])
+    # SeedSequence(seed).spawn(n)[i] without building the n - 1 other children
+    return np.random.default_rng(np.random.SeedSequence(ss.entropy, spawn_key=(i,)))
 
 
 def make_rng(seed):

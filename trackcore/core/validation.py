@@ -6,6 +6,7 @@ error names the offending argument and says what was expected.
 """
 from __future__ import annotations
 
+import math
 import numbers
 
 import numpy as np
@@ -27,6 +28,7 @@ __all__ = [
     "as_rng",
     "as_bool_matrix",
     "as_offsets",
+    "finite_result",
 ]
 
 
@@ -190,13 +192,29 @@ def as_probabilities(p, name: str, *, shape=None) -> np.ndarray:
     return arr
 
 
+_INT_MAX = 2**63 - 1
+_FLOAT_INT_MAX = 2**53
+
+
 def as_int(n, name: str, *, minimum: int | None = None) -> int:
+    """An integer (a float with an integer value, such as ``3.0``, is accepted).
+
+    Integers must fit in 64 bits, since kernels take them as ``int64``; a float must
+    be at most ``2**53`` in magnitude, beyond which it no longer holds every integer.
+    """
     if isinstance(n, (bool, np.bool_)) or not isinstance(n, (numbers.Integral,)):
-        if isinstance(n, float) and float(n).is_integer():
+        if isinstance(n, (float, np.floating)) and math.isfinite(n) and float(n).is_integer():
+            if abs(float(n)) > _FLOAT_INT_MAX:
+                raise ValueError(f"{name} must be an integer of magnitude at most 2**53 when "
+                                 f"given as a float, got {float(n)!r}")
             n = int(n)
         else:
-            raise TypeError(f"{name} must be an integer, got {_describe(n)}")
+            raise TypeError(f"{name} must be an integer, got {_describe(n)} {n!r}"
+                            if isinstance(n, (float, np.floating)) else
+                            f"{name} must be an integer, got {_describe(n)}")
     n = int(n)
+    if not -_INT_MAX <= n <= _INT_MAX:
+        raise ValueError(f"{name} must fit in a 64-bit integer, got {n}")
     if minimum is not None and n < minimum:
         raise ValueError(f"{name} must be >= {minimum}, got {n}")
     return n
@@ -243,3 +261,15 @@ def as_offsets(offsets, total: int, name: str = "offsets", *, min_scans: int = 0
         raise ValueError(f"{name} must start at 0, be non-decreasing and end at the number of "
                          f"measurements ({total})")
     return off
+
+
+def finite_result(x, what: str, cause: str):
+    """Return ``x`` (a number or an array) if every entry is finite, else raise
+    ``ValueError``: finite inputs whose ``what`` overflows (or becomes NaN through an
+    overflow) get a clear error naming the arguments in ``cause``, never a silent
+    ``inf`` or NaN."""
+    arr = np.asarray(x)
+    if arr.dtype.kind in "fc" and arr.size and not np.all(np.isfinite(arr)):
+        raise ValueError(f"{what} is not finite in floating point (it overflows); "
+                         f"check the magnitude of {cause}")
+    return x

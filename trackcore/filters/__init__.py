@@ -1,4 +1,4 @@
-"""trackcore.filters: see ARCHITECTURE.md for what this layer holds.
+"""trackcore.filters: Kalman and extended Kalman filters, IMM, particle-filter steps.
 
 Every public name in a module's ``__all__`` is re-exported here.
 """

@@ -16,6 +16,8 @@ Markov transition matrix ``PI[i, j] = P(mode j at k | mode i at k-1)``:
 :func:`imm_step` is one cycle (the same as filterpy's ``IMMEstimator.predict()``
 followed by ``update(z)``); :func:`imm_filter_run` runs all scans in one numba
 kernel.  All modes share the state dimension and the measurement model.
+The ``*_kernel`` functions are numba kernels for other kernels (the IMM-PDAF
+tracker); they assume valid input and are not public.
 """
 from __future__ import annotations
 
@@ -27,7 +29,8 @@ import numpy as np
 
 from ..core.validation import as_array, as_vector
 from ._fastcheck import checked, checked_cov, checked_cov_stack
-from .kalman import GaussianEstimate, _predict_into, _update_into, _update_scratch
+from .kalman import (GaussianEstimate, _finite_outputs, _predict_into, _update_into,
+                     _update_scratch)
 
 __all__ = [
     "IMMStep",
@@ -37,10 +40,6 @@ __all__ = [
     "imm_combine",
     "imm_step",
     "imm_filter_run",
-    "imm_mix_kernel",
-    "imm_mode_update_kernel",
-    "imm_combine_kernel",
-    "imm_filter_run_kernel",
 ]
 
 
@@ -246,16 +245,17 @@ def _check_PI(PI, r):
     return PI
 
 
-def _check_modes(xs, Ps, r=None):
+def _check_modes(xs, Ps, r=None, names=("xs", "Ps")):
+    xn, pn = names
     if not (type(xs) is np.ndarray and xs.ndim == 2):
-        xs = as_array(xs, "xs", ndim=2)
-    xs = checked(xs, "xs", xs.shape)
+        xs = as_array(xs, xn, ndim=2)
+    xs = checked(xs, xn, xs.shape)
     r_, n = xs.shape
     if r is not None and r_ != r:
-        raise ValueError(f"xs must have {r} rows (one per mode), got shape {xs.shape}")
+        raise ValueError(f"{xn} must have {r} rows (one per mode), got shape {xs.shape}")
     if n == 0 or r_ == 0:
-        raise ValueError(f"xs must be a non-empty (r, n) array, got shape {xs.shape}")
-    Ps = checked_cov_stack(Ps, "Ps", r_, n)
+        raise ValueError(f"{xn} must be a non-empty (r, n) array, got shape {xs.shape}")
+    Ps = checked_cov_stack(Ps, pn, r_, n)
     return xs, Ps, r_, n
 
 
@@ -275,6 +275,7 @@ def imm_mix(mu, PI, xs, Ps):
     PI = _check_PI(PI, r)
     x0s, P0s, c_bar = np.empty((r, n)), np.empty((r, n, n)), np.empty(r)
     imm_mix_kernel(mu, PI, xs, Ps, x0s, P0s, c_bar)
+    _finite_outputs("the mixed estimate", "xs and Ps", x0s, P0s)
     return x0s, P0s, c_bar
 
 
@@ -304,12 +305,13 @@ def imm_combine(mu, xs, Ps):
     mu = _check_mu(mu, "mu", r)
     x, P = np.empty(n), np.empty((n, n))
     imm_combine_kernel(mu, xs, Ps, x, P)
+    _finite_outputs("the combined estimate", "xs and Ps", x, P)
     return GaussianEstimate(x, P)
 
 
-def _check_imm_inputs(xs, Ps, mu, PI, Fs, Qs, H, R, m):
-    xs, Ps, r, n = _check_modes(xs, Ps)
-    mu = _check_mu(mu, "mu", r)
+def _check_imm_inputs(xs, Ps, mu, PI, Fs, Qs, H, R, m, names=("xs", "Ps", "mu")):
+    xs, Ps, r, n = _check_modes(xs, Ps, names=names[:2])
+    mu = _check_mu(mu, names[2], r)
     PI = _check_PI(PI, r)
     Fs = _check_stack(Fs, "Fs", r, n, covariance=False)
     Qs = _check_stack(Qs, "Qs", r, n, covariance=True)
@@ -346,6 +348,7 @@ def imm_step(xs, Ps, mu, PI, Fs, Qs, z, H, R):
         raise ValueError(f"innovation covariance of mode {bad} is not positive definite")
     x, P = np.empty(n), np.empty((n, n))
     imm_combine_kernel(mu_new, xs, Ps, x, P)
+    _finite_outputs("the IMM cycle", "xs, Ps, Fs, Qs, z, H and R", xs, Ps, x, P, logliks)
     return IMMStep(xs, Ps, mu_new, x, P, logliks)
 
 
@@ -365,8 +368,8 @@ def imm_filter_run(zs, xs0, Ps0, mu0, PI, Fs, Qs, H, R):
         nan_rows = np.isnan(zs)
         if np.any(nan_rows.any(axis=1) != nan_rows.all(axis=1)) or np.any(np.isinf(zs)):
             raise ValueError("zs must be finite; a missed scan is a row that is entirely NaN")
-    xs0, Ps0, mu0, PI, Fs, Qs, H, R, r, n = _check_imm_inputs(xs0, Ps0, mu0, PI, Fs, Qs, H, R,
-                                                              m)
+    xs0, Ps0, mu0, PI, Fs, Qs, H, R, r, n = _check_imm_inputs(
+        xs0, Ps0, mu0, PI, Fs, Qs, H, R, m, names=("xs0", "Ps0", "mu0"))
     x_out, P_out = np.empty((Kn, n)), np.empty((Kn, n, n))
     mu_out, ll_out = np.empty((Kn, r)), np.empty(Kn)
     k, bad = imm_filter_run_kernel(zs, xs0, Ps0, mu0, PI, Fs, Qs, H, R, x_out, P_out, mu_out,
@@ -376,4 +379,7 @@ def imm_filter_run(zs, xs0, Ps0, mu0, PI, Fs, Qs, H, R):
             raise ValueError(f"no mode has positive probability at scan {k}")
         raise ValueError(f"innovation covariance of mode {bad} is not positive definite "
                          f"at scan {k}")
+    if Kn:  # a non-finite estimate stays non-finite (see kalman._finite_run)
+        _finite_outputs("the IMM estimate", "zs, xs0, Ps0, Fs, Qs, H and R", x_out[-1],
+                        P_out[-1], ll_out)
     return IMMRun(x_out, P_out, mu_out, ll_out)

@@ -3,8 +3,10 @@
 Public functions (:func:`kf_predict`, :func:`kf_update`, :func:`ekf_update`,
 :func:`kalman_filter_run`) validate their inputs once and call numba kernels.
 The kernels (``*_kernel``) assume valid, C-contiguous float64 arrays and write
-into preallocated outputs; they are meant to be called from other kernels
-(IMM, PDA, trackers).
+into preallocated outputs of the right shapes; they are meant to be called from
+other kernels (IMM, PDA, trackers), are not public, and are imported from this
+module.  Finite inputs whose result overflows (a state or a measurement near
+``1e300``) raise ``ValueError`` rather than return ``inf`` or NaN.
 
 Update (Bar-Shalom, Li & Kirubarajan 2001, sec. 5.2):
 ``S = H P H^T + R``, ``K = P H^T S^{-1}``, ``x+ = x + K nu``,
@@ -23,7 +25,7 @@ import numba as nb
 import numpy as np
 
 from ..core.logmath import LOG_2PI
-from ..core.validation import as_array, as_vector
+from ..core.validation import as_array, as_vector, finite_result
 from ..models.measurement import wrap_angle_kernel
 from ._fastcheck import checked, checked_cov
 
@@ -36,11 +38,6 @@ __all__ = [
     "ekf_update",
     "kalman_filter_run",
     "kalman_filter_batch",
-    "cholesky_lower_kernel",
-    "kf_predict_kernel",
-    "kf_update_kernel",
-    "kalman_filter_run_kernel",
-    "kalman_filter_batch_kernel",
 ]
 
 
@@ -437,7 +434,14 @@ def kf_predict(x, P, F, Q):
     x_out = np.empty(n)
     P_out = np.empty((n, n))
     kf_predict_kernel(x, P, F, Q, x_out, P_out)
+    _finite_outputs("the prediction", "x, P, F and Q", x_out, P_out)
     return GaussianEstimate(x_out, P_out)
+
+
+def _finite_outputs(what, cause, *arrays):
+    for a in arrays:
+        if not math.isfinite(float(np.sum(a))):
+            finite_result(a, what, cause)
 
 
 def _check_measurement(z, H, R, n, z_name="z"):
@@ -466,6 +470,8 @@ def _finish_update(x, P, innov, H, R, n, m):
                                    *_update_scratch(n, m))
     if not ok:
         raise ValueError(_NOT_PD)
+    _finite_outputs("the update", "x, P, z, z_pred, H and R", x_out, P_out, innov, S, K,
+                    nis, loglik)
     return KalmanUpdate(x_out, P_out, innov, S, K, float(nis), float(loglik))
 
 
@@ -482,6 +488,8 @@ def kf_update(x, P, z, H, R):
     nis, loglik, ok = kf_update_kernel(x, P, z, H, R, x_out, P_out, innov, S, K)
     if not ok:
         raise ValueError(_NOT_PD)
+    _finite_outputs("the update", "x, P, z, H and R", x_out, P_out, innov, S, K, nis,
+                    loglik)
     return KalmanUpdate(x_out, P_out, innov, S, K, float(nis), float(loglik))
 
 
@@ -498,9 +506,13 @@ def ekf_update(x, P, z, z_pred, H, R, angle_index=None):
     z_pred = as_vector(z_pred, "z_pred", m)
     innov = z - z_pred
     if angle_index is not None:
+        if isinstance(angle_index, (bool, np.bool_, str, bytes)):
+            raise TypeError(f"angle_index must be an integer or a sequence of integers, "
+                            f"got {type(angle_index).__name__}")
         idx = np.atleast_1d(np.asarray(angle_index))
-        if idx.size and (not np.issubdtype(idx.dtype, np.integer)):
-            raise TypeError(f"angle_index must hold integers, got dtype {idx.dtype}")
+        if idx.ndim != 1 or (idx.size and not np.issubdtype(idx.dtype, np.integer)):
+            raise TypeError(f"angle_index must hold integers, got {idx.dtype} of shape "
+                            f"{idx.shape}")
         if idx.size and (idx.min() < -m or idx.max() >= m):
             raise ValueError(f"angle_index entries must index the {m} measurement components, "
                              f"got {idx.tolist()}")
@@ -538,7 +550,25 @@ def kalman_filter_run(zs, x0, P0, F, Q, H, R):
     bad = kalman_filter_run_kernel(zs, x0, P0, F, Q, H, R, xs, Ps, nis, loglik)
     if bad >= 0:
         raise ValueError(f"innovation covariance S is not positive definite at scan {bad}")
+    _finite_run(zs, xs, Ps, nis, loglik)
     return KalmanRun(xs, Ps, nis, loglik)
+
+
+def _finite_run(zs, xs, Ps, nis, loglik):
+    """A run's outputs are finite except the NIS of a missed scan (NaN by definition).
+
+    A non-finite mean or covariance stays non-finite through every later prediction and
+    update (``inf`` times a zero is NaN), so the last scan's estimate stands for the
+    run's; the NIS and log-likelihoods are checked at every scan."""
+    cause = "zs, x0, P0, F, Q, H and R"
+    if xs.shape[-2]:
+        _finite_outputs("the filtered state", cause, xs[..., -1, :], Ps[..., -1, :, :])
+    _finite_outputs("the log-likelihood", cause, loglik)
+    if not math.isfinite(float(np.nansum(nis))) or (
+            np.isnan(nis).any() and zs.shape[-1] and np.any(
+                np.isnan(nis) != np.isnan(zs[..., 0]))):
+        raise ValueError("the NIS is not finite in floating point (it overflows); check "
+                         f"the magnitude of {cause}")
 
 
 def _check_zs(zs, ndim):
@@ -579,4 +609,5 @@ def kalman_filter_batch(zs, x0, P0, F, Q, H, R):
         if run >= 0:
             raise ValueError(f"innovation covariance S is not positive definite at scan {scan} "
                              f"of run {run}")
+        _finite_run(zs, xs, Ps, nis, loglik)
     return KalmanRun(xs, Ps, nis, loglik)

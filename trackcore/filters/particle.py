@@ -3,8 +3,16 @@
 Particles are ``(N, n)`` C-contiguous float64 arrays and weights travel as
 ``(N,)`` log-weights.  Every public function validates its input once and
 then calls a ``@numba.njit(cache=True)`` kernel; the ``*_kernel`` functions
-take plain arrays (and a ``numpy.random.Generator`` where randomness is
-needed) and can be called from other numba kernels.
+take plain arrays of the right shapes (and a ``numpy.random.Generator`` where
+randomness is needed), check nothing, and are called from other numba kernels
+(the trackers import them from this module; they are not public).
+
+Log-weights are never NaN.  A particle whose log-likelihood is not finite (its
+state so far away that the squared innovation overflows, or a state that is
+itself not finite) gets the log-weight ``-inf``: weight zero, never selected by
+resampling.  When every particle of a step gets weight zero there is no
+posterior, and :func:`bootstrap_step` raises ``ValueError``.  On finite input
+these rules change no bit of any result.
 
 Random draws are always made serially in a fixed order, so every result is
 a deterministic function of the generator's state.  On request
@@ -33,39 +41,27 @@ import numpy as np
 
 from ..core.logmath import logsumexp_kernel
 from ..core.validation import (as_array, as_covariance, as_int, as_matrix, as_rng,
-                               as_scalar, as_square_matrix, as_vector)
+                               as_scalar, as_square_matrix, as_vector, finite_result)
 from ..models.measurement import wrap_angle_kernel
 from ._fastcheck import checked
 
 __all__ = [
     "noise_factor",
     "propagate_linear",
-    "propagate_linear_kernel",
     "effective_sample_size",
-    "effective_sample_size_kernel",
     "systematic_resample",
     "stratified_resample",
     "residual_resample",
     "multinomial_resample",
-    "systematic_resample_kernel",
-    "stratified_resample_kernel",
-    "residual_resample_kernel",
-    "multinomial_resample_kernel",
-    "systematic_indices_kernel",
-    "stratified_indices_kernel",
     "RESAMPLING_SCHEMES",
     "resample_particles",
     "loglik_gaussian_position",
-    "loglik_gaussian_position_kernel",
     "loglik_range_bearing",
-    "loglik_range_bearing_kernel",
     "BootstrapStep",
     "bootstrap_step",
-    "bootstrap_step_kernel",
     "MODEL_POSITION",
     "MODEL_RANGE_BEARING",
     "weighted_mean_cov",
-    "weighted_mean_cov_kernel",
 ]
 
 _LOG_2PI = math.log(2.0 * math.pi)
@@ -141,11 +137,15 @@ def _as_weights(w, name="w"):
         raise ValueError(f"{name} must contain only finite values (found NaN or inf)")
     if np.any(arr < 0):
         raise ValueError(f"{name} must be non-negative")
-    total = float(arr.sum())
+    with np.errstate(over="ignore"):
+        total = float(arr.sum())
     if not total > 0:
         raise ValueError(f"{name} must have a positive sum (all weights are zero)")
-    if total < 1e-280:  # keep the kernels' cumulative sums out of the subnormal range
+    if total < 1e-280 or total == math.inf:
+        # keep the kernels' cumulative sums out of the subnormal range and below overflow
         arr = arr / arr.max()
+        if not _finite_sum(arr):  # more than ~1e308 particles: not reachable
+            raise ValueError(f"{name} has too many entries to sum")
     return arr
 
 
@@ -205,8 +205,18 @@ def propagate_linear(particles, F, Q, rng, *, noise_factor=None, out=None):
             raise ValueError(f"out must be a C-contiguous float64 array of shape {X.shape}")
         if out is particles and X is not particles:
             raise ValueError("in-place propagation needs particles as a C-contiguous float64 array")
+        if out is not particles and np.may_share_memory(out, X):
+            raise ValueError("out must be particles itself or not overlap it")
     propagate_linear_kernel(X, F, L, rng, out)
+    if not _finite_sum(out):
+        finite_result(out, "the propagated particles", "particles, F and Q")
     return out
+
+
+def _finite_sum(a) -> bool:
+    """One pass: True when the sum is finite (then so is every entry); a sum of finite
+    entries that overflows (numpy warns) sends the caller to the entry-wise check."""
+    return math.isfinite(float(a.sum()))
 
 
 # --------------------------------------------------------------------------
@@ -259,12 +269,16 @@ def weighted_mean_cov_kernel(particles, logw, mean, cov):
     for i in range(N):
         wi = math.exp(logw[i] - m)
         tot += wi
+        if wi == 0.0:
+            continue
         for a in range(n):
             mean[a] += wi * particles[i, a]
     for a in range(n):
         mean[a] /= tot
     for i in range(N):
         wi = math.exp(logw[i] - m) / tot
+        if wi == 0.0:  # a zero weight adds nothing (and no NaN from a far particle)
+            continue
         for a in range(n):
             da = particles[i, a] - mean[a]
             for b in range(a, n):
@@ -284,6 +298,8 @@ def weighted_mean_cov(particles, logw):
     mean = np.empty(n)
     cov = np.empty((n, n))
     weighted_mean_cov_kernel(X, w, mean, cov)
+    finite_result(mean, "the weighted mean", "particles")
+    finite_result(cov, "the weighted covariance", "particles")
     return mean, cov
 
 
@@ -640,12 +656,18 @@ def _loglik_dispatch(X, z, Rinv, logdet, model, sx, sy, out, parallel):
         _ll_parallel(X, z, Rinv, c, model, sx, sy, out)
     else:
         _add_loglik(X, z, Rinv, logdet, model, sx, sy, out)
+    # an overflowing innovation can make inf - inf: that particle's likelihood is zero
+    nan = np.isnan(out)
+    if nan.any():
+        out[nan] = -np.inf
 
 
 def loglik_gaussian_position(particles, z, R, *, parallel=False):
     """Log-likelihoods ``log N(z; x_i[:d], R)`` of each particle, ``(N,)``.
 
-    The first ``d = len(z)`` state components are the measured position.
+    The first ``d = len(z)`` state components are the measured position.  A
+    particle so far from ``z`` that its squared Mahalanobis distance overflows
+    gets ``-inf`` (likelihood zero), never NaN.
     """
     X = _as_particles(particles)
     z = as_vector(z, "z")
@@ -667,7 +689,8 @@ def loglik_range_bearing(particles, z, R, sensor=(0.0, 0.0), *, parallel=False):
     """Log-likelihoods of a range-bearing measurement ``z = (r, theta)``.
 
     ``particles`` have ``[x, y, ...]`` first; bearing ``atan2(y - sy, x - sx)``;
-    the bearing innovation is wrapped to (-pi, pi].  Returns ``(N,)``.
+    the bearing innovation is wrapped to (-pi, pi].  Returns ``(N,)``; a
+    particle whose range innovation overflows gets ``-inf``, never NaN.
     """
     X = _as_particles(particles)
     if X.shape[1] < 2:
@@ -799,7 +822,9 @@ def _move_flat4(particles, lo, hi, F, L, noise, out):
 def _weigh_range(X, lo, hi, z, Rinv, c, model, sx, sy, logw):
     """Add the log-likelihoods of particles ``X[lo:hi]`` to ``logw`` (skipped
     when ``z`` is empty); returns the largest resulting log-weight in the range
-    (a separate pass in the same order as the additions, so the same value)."""
+    (a separate pass in the same order as the additions, so the same value).
+    A NaN log-weight (``inf - inf`` from a non-finite or overflowing state)
+    becomes ``-inf`` in that pass."""
     if z.shape[0] > 0:
         if model == 1:
             _add_range_bearing_loglik(X, lo, hi, z, Rinv, c, sx, sy, logw)
@@ -809,6 +834,9 @@ def _weigh_range(X, lo, hi, z, Rinv, c, model, sx, sy, logw):
     top = -np.inf
     for i in range(lo, hi):
         v = logw[i]
+        if v != v:  # NaN from an overflowing innovation: this particle has weight zero
+            v = -np.inf
+            logw[i] = v
         top = v if v > top else top
     return top
 
@@ -1015,6 +1043,11 @@ def bootstrap_step(particles, logw, F, L, z, R, rng, model="range_bearing", *,
     cores).  ``scratch``: optional ``(N, n)`` C-contiguous float64 work
     array, not overlapping ``particles`` (reuse one across steps to save an
     allocation).  Returns a :class:`BootstrapStep`.
+
+    A particle whose log-likelihood is not finite gets the log-weight
+    ``-inf`` (it is never resampled); when every particle does, there is no
+    posterior and a ``ValueError`` is raised, as it is when the propagation
+    overflows.  Log-weights, ESS and log-evidence are never NaN.
     """
     # Each argument takes a cheap path when it is already what the kernel needs
     # (C-contiguous float64 of the right shape, finite sum); anything else goes
@@ -1078,4 +1111,11 @@ def bootstrap_step(particles, logw, F, L, z, R, rng, model="range_bearing", *,
     else:
         log_ev, ess, res = bootstrap_step_kernel(X, lw, F, L, z, Rinv, logdet, code, sx, sy,
                                                  rng, ess_threshold, scratch)
+    if not _finite_sum(X):
+        finite_result(X, "the propagated particles", "particles, F and L")
+    if log_ev == -math.inf:
+        raise ValueError("every particle has likelihood zero (each log-likelihood is -inf or "
+                         "NaN, e.g. z is too far from every particle for its density to be "
+                         "represented); particles now hold the propagated particles with "
+                         "uniform weights")
     return BootstrapStep(X, lw, float(log_ev), float(ess), bool(res))

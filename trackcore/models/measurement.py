@@ -6,6 +6,13 @@ given.  Bearing is ``atan2(y, x)`` (counter-clockwise from +x), in
 ``(N, n)``; batches go through numba kernels (particle filters call them on
 10^5 particles).  Jacobians are analytic and raise ``ValueError`` at zero
 range, where they are undefined.
+
+The ``*_kernel`` functions are numba kernels for other kernels (particle
+filters, trackers); they assume valid input and are not public.  The public
+functions give the same bits as the kernels, except for states so far from (or
+so close to) the sensor that ``x**2 + y**2`` overflows (or underflows): those
+rows are recomputed in a scaled form (``hypot``), so a finite state always has a
+finite range, and a result that cannot be represented raises ``ValueError``.
 """
 from __future__ import annotations
 
@@ -14,20 +21,16 @@ import math
 import numba as nb
 import numpy as np
 
-from ..core.validation import as_array, as_int, as_nonnegative, as_scalar, as_vector
+from ..core.validation import (as_array, as_int, as_nonnegative, as_scalar, as_vector,
+                               finite_result)
 
 __all__ = [
     "position_matrix",
     "wrap_angle",
-    "wrap_angle_kernel",
     "range_bearing",
     "range_bearing_jacobian",
-    "range_bearing_kernel",
-    "range_bearing_jacobian_kernel",
     "range_bearing_doppler",
     "range_bearing_doppler_jacobian",
-    "range_bearing_doppler_kernel",
-    "range_bearing_doppler_jacobian_kernel",
     "polar_to_cartesian",
     "converted_measurement_covariance",
 ]
@@ -84,6 +87,29 @@ def _sensor(sensor):
     return as_vector(sensor, "sensor", 2)
 
 
+def _kernel_on_rows(kernel, X, out, rows, *extra):
+    """``kernel(X, *extra, out)`` restricted to the rows where ``rows`` is True (all of
+    them in the usual case, without a copy); returns the kernel's zero-range index in
+    ``X``'s numbering, or -1."""
+    if rows.all():
+        args = (X,) + extra + (out,)
+        return kernel(*args)
+    keep = np.flatnonzero(rows)
+    sub = np.zeros((keep.size,) + out.shape[1:])
+    args = (np.ascontiguousarray(X[keep]),) + extra + (sub,)
+    bad = kernel(*args)
+    out[keep] = sub
+    return -1 if bad < 0 else int(keep[bad])
+
+
+def _extreme_rows(dx, dy):
+    """Rows whose ``dx**2 + dy**2`` overflows or underflows (kernels' arithmetic
+    loses the range there); recomputed with ``hypot`` by the public functions."""
+    with np.errstate(all="ignore"):
+        r2 = dx * dx + dy * dy
+    return ~np.isfinite(r2) | ((r2 < 1e-290) & ((dx != 0) | (dy != 0)))
+
+
 @nb.njit(cache=True)
 def range_bearing_kernel(X, sx, sy, out):
     """Range and bearing of each row of ``X`` (N, n>=2) into ``out`` (N, 2)."""
@@ -105,6 +131,12 @@ def range_bearing(x, sensor=None):
     X2 = X.reshape(1, -1) if single else X
     out = np.empty((X2.shape[0], 2))
     range_bearing_kernel(X2, s[0], s[1], out)
+    dx, dy = X2[:, 0] - s[0], X2[:, 1] - s[1]
+    bad = _extreme_rows(dx, dy)
+    if bad.any():
+        out[bad, 0] = np.hypot(dx[bad], dy[bad])
+        out[bad, 1] = np.arctan2(dy[bad], dx[bad])
+        finite_result(out, "the range", "x and sensor")
     return out[0] if single else out
 
 
@@ -136,7 +168,17 @@ def range_bearing_jacobian(x, sensor=None):
     single = X.ndim == 1
     X2 = X.reshape(1, -1) if single else X
     out = np.zeros((X2.shape[0], 2, X2.shape[1]))
-    bad = range_bearing_jacobian_kernel(X2, s[0], s[1], out)
+    dx, dy = X2[:, 0] - s[0], X2[:, 1] - s[1]
+    ext = _extreme_rows(dx, dy)
+    bad = _kernel_on_rows(range_bearing_jacobian_kernel, X2, out, ~ext, s[0], s[1])
+    if ext.any():  # the scaled form on the rows the kernel's arithmetic cannot take
+        r = np.hypot(dx[ext], dy[ext])
+        u, v = dx[ext] / r, dy[ext] / r
+        out[ext, 0, 0] = u
+        out[ext, 0, 1] = v
+        out[ext, 1, 0] = -v / r
+        out[ext, 1, 1] = u / r
+        finite_result(out, "the range-bearing Jacobian", "x and sensor")
     if bad >= 0:
         raise ValueError("x is at zero range from the sensor: the range-bearing Jacobian "
                          f"is undefined (state index {bad})")
@@ -172,10 +214,19 @@ def range_bearing_doppler(x_rel):
     single = X.ndim == 1
     X2 = X.reshape(1, -1) if single else X
     out = np.empty((X2.shape[0], 3))
-    bad = range_bearing_doppler_kernel(X2, out)
+    ext = _extreme_rows(X2[:, 0], X2[:, 1])
+    bad = _kernel_on_rows(range_bearing_doppler_kernel, X2, out, ~ext)
+    if ext.any():
+        x, y, vx, vy = (X2[ext, j] for j in range(4))
+        r = np.hypot(x, y)
+        with np.errstate(all="ignore"):
+            out[ext, 0] = r
+            out[ext, 1] = np.arctan2(y, x)
+            out[ext, 2] = (x / r) * vx + (y / r) * vy
     if bad >= 0:
         raise ValueError("x_rel has zero range: the range rate is undefined "
                          f"(state index {bad})")
+    finite_result(out, "the range rate", "x_rel")
     return out[0] if single else out
 
 
@@ -212,7 +263,25 @@ def range_bearing_doppler_jacobian(x_rel):
     single = X.ndim == 1
     X2 = X.reshape(1, -1) if single else X
     out = np.zeros((X2.shape[0], 3, X2.shape[1]))
-    bad = range_bearing_doppler_jacobian_kernel(X2, out)
+    ext = _extreme_rows(X2[:, 0], X2[:, 1])
+    bad = _kernel_on_rows(range_bearing_doppler_jacobian_kernel, X2, out, ~ext)
+    if ext.any():
+        x, y, vx, vy = (X2[ext, j] for j in range(4))
+        with np.errstate(all="ignore"):
+            r = np.hypot(x, y)
+            u, v = x / r, y / r
+            cross = vx * v - vy * u
+            out[ext] = 0.0
+            out[ext, 0, 0] = u
+            out[ext, 0, 1] = v
+            out[ext, 1, 0] = -v / r
+            out[ext, 1, 1] = u / r
+            out[ext, 2, 0] = v * cross / r
+            out[ext, 2, 1] = -u * cross / r
+            out[ext, 2, 2] = u
+            out[ext, 2, 3] = v
+    if bad < 0:
+        finite_result(out, "the range-bearing-Doppler Jacobian", "x_rel")
     if bad >= 0:
         raise ValueError("x_rel has zero range: the range-bearing-Doppler Jacobian is "
                          f"undefined (state index {bad})")
@@ -250,5 +319,7 @@ def converted_measurement_covariance(r, bearing, sigma_r, sigma_bearing):
     sb = as_nonnegative(sigma_bearing, "sigma_bearing")
     c, s = math.cos(b), math.sin(b)
     J = np.array([[c, -r * s], [s, r * c]])
-    R = J @ np.diag([sr * sr, sb * sb]) @ J.T
-    return 0.5 * (R + R.T)
+    with np.errstate(all="ignore"):
+        R = J @ np.diag([sr * sr, sb * sb]) @ J.T
+        R = 0.5 * (R + R.T)
+    return finite_result(R, "the converted covariance", "r, sigma_r and sigma_bearing")

@@ -1,6 +1,6 @@
 """Linear motion models: constant velocity, coordinated turn, Singer.
 
-State conventions (see ARCHITECTURE.md): a ``dim``-dimensional kinematic state
+State conventions (see the design appendix of the book): a ``dim``-dimensional kinematic state
 is ``[positions..., velocities...]`` (e.g. ``[x, y, vx, vy]``), and a Singer
 state is ``[positions..., velocities..., accelerations...]``.  Per-axis
 matrices (``[p, v]`` or ``[p, v, a]``) are lifted to that layout with
@@ -19,7 +19,7 @@ import numpy as np
 import scipy.linalg
 
 from ..core.validation import (as_covariance, as_int, as_nonnegative, as_positive,
-                               as_scalar, as_square_matrix)
+                               as_scalar, as_square_matrix, finite_result)
 
 __all__ = [
     "kron_axes",
@@ -78,10 +78,14 @@ def cv_process_noise(T, q, dim=2, kind="dwna"):
     d = _as_dim(dim)
     if kind not in _KINDS:
         raise ValueError(f"kind must be one of {_KINDS}, got {kind!r}")
-    if kind == "dwna":
-        per_axis = q * np.array([[T**4 / 4.0, T**3 / 2.0], [T**3 / 2.0, T**2]])
-    else:
-        per_axis = q * np.array([[T**3 / 3.0, T**2 / 2.0], [T**2 / 2.0, T]])
+    try:
+        if kind == "dwna":
+            per_axis = q * np.array([[T**4 / 4.0, T**3 / 2.0], [T**3 / 2.0, T**2]])
+        else:
+            per_axis = q * np.array([[T**3 / 3.0, T**2 / 2.0], [T**2 / 2.0, T]])
+    except OverflowError:
+        per_axis = np.full((2, 2), np.inf)
+    finite_result(per_axis, "the process-noise covariance", "T and q")
     return np.ascontiguousarray(np.kron(per_axis, np.eye(d)))
 
 
@@ -104,6 +108,8 @@ def coordinated_turn_transition(omega, T):
     w = as_scalar(omega, "omega")
     T = as_nonnegative(T, "T")
     u = w * T
+    if not math.isfinite(u):
+        raise ValueError(f"omega * T must be finite, got omega={w!r}, T={T!r}")
     s, c = math.sin(u), math.cos(u)
     a = T * _sinc(u)                         # sin(wT)/w
     b = T * math.sin(0.5 * u) * _sinc(0.5 * u)  # (1 - cos wT)/w
@@ -187,9 +193,10 @@ def singer_transition(T, tau):
     else:
         f13 = (x - 1.0 + math.exp(-x)) / (a * a)
     f23 = -math.expm1(-x) / a if x > 0 else T
-    return np.array([[1.0, T, f13],
-                     [0.0, 1.0, f23],
-                     [0.0, 0.0, math.exp(-x)]])
+    return finite_result(np.array([[1.0, T, f13],
+                                   [0.0, 1.0, f23],
+                                   [0.0, 0.0, math.exp(-x)]]),
+                         "the Singer transition matrix", "T and tau")
 
 
 def singer_process_noise(T, tau, sigma_m):
@@ -206,11 +213,14 @@ def singer_process_noise(T, tau, sigma_m):
     a = 1.0 / tau
     x = a * T
     Q = np.empty((3, 3))
-    for (i, j), k in _SINGER_POWERS.items():
-        # 2 a s^2 * B / (2 a^k) = s^2 * B / a^(k-1)
-        v = sigma_m**2 * _bracket((i, j), x) * tau ** (k - 1)
-        Q[i, j] = Q[j, i] = v
-    return Q
+    try:
+        for (i, j), k in _SINGER_POWERS.items():
+            # 2 a s^2 * B / (2 a^k) = s^2 * B / a^(k-1)
+            v = sigma_m**2 * _bracket((i, j), x) * tau ** (k - 1)
+            Q[i, j] = Q[j, i] = v
+    except OverflowError:
+        Q[:] = np.inf
+    return finite_result(Q, "the Singer process-noise covariance", "T, tau and sigma_m")
 
 
 def van_loan_discretize(A, L_Qc_Lt, T):
@@ -232,8 +242,11 @@ def van_loan_discretize(A, L_Qc_Lt, T):
     M[:n, :n] = -A
     M[:n, n:] = W
     M[n:, n:] = A.T
-    E = scipy.linalg.expm(M * T)
-    F = E[n:, n:].T
-    Q = F @ E[:n, n:]
-    Q = 0.5 * (Q + Q.T)
+    with np.errstate(all="ignore"):
+        E = scipy.linalg.expm(M * T)
+        F = E[n:, n:].T
+        Q = F @ E[:n, n:]
+        Q = 0.5 * (Q + Q.T)
+    finite_result(F, "the discretised transition expm(A T)", "A and T")
+    finite_result(Q, "the discretised process noise", "A, L_Qc_Lt and T")
     return np.ascontiguousarray(F), np.ascontiguousarray(Q)
