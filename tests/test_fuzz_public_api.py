@@ -222,8 +222,6 @@ PENDING_OTHER_OWNERS = {
     "T=nan|T=inf|T=-inf|sigma_r=nan|sigma_r=inf|sigma_r=-inf|eta=nan|eta=inf|eps_w=nan|"
     "eps_w=inf|eps_w=-inf]":
         "silent non-finite result (trackers/clustering_hybrid.py)",
-    "Estimate[value=inf|value=-inf|lo=-inf|hi=inf|n=nan|n=inf]":
-        "silent non-finite result (stats.py)",
     "HpdaParameters[issue:sigma_r=nan]":
         "accepted (scenarios/hpda_scenario.py)",
     "HpdaParameters[pd=nan|pd=inf|pd=-inf|snr=nan|snr=inf|snr=-inf|clutter_mean=nan|"
@@ -373,8 +371,6 @@ PENDING_OTHER_OWNERS = {
     "match_tracks[truth_xy=ndim+1|truth_xy=ndim-1|truth_xy=empty|truth_xy=cols=1|"
     "reports=empty]":
         "IndexError (scenarios/feature_metrics.py)",
-    "mcnemar_exact[b=inf|c=inf]":
-        "OverflowError (stats.py)",
     "modified_polar_F[ub=1e300]":
         "silent non-finite result (models/modified_polar.py)",
     "modified_polar_Q[sigma_p=1e300]":
@@ -397,8 +393,6 @@ PENDING_OTHER_OWNERS = {
         "ZeroDivisionError (trackers/tbd_pf.py)",
     "range_azimuth_elevation_jacobian[x=1e300]":
         "silent non-finite result (trackers/tbd_pf.py)",
-    "rate_ci[k=inf|n=inf]":
-        "OverflowError (stats.py)",
     "render_frame[issue:gain=nan]":
         "accepted (detection/image.py)",
     "run_hpda_trial[keep_estimates=str|keep_estimates=nan]":
@@ -502,8 +496,6 @@ PENDING_OTHER_OWNERS = {
         "OverflowError (scenarios/feature_metrics.py)",
     "weighted_mean_detection[snr=1e300]":
         "hang (trackers/tbd_pf.py)",
-    "wilson_interval[z=1e300]":
-        "OverflowError (stats.py)",
     "chord_heading_kernel[kernel]":
         "numba kernel in models.__all__ (models/tom.py)",
     "modified_polar_F_kernel[kernel]":

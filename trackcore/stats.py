@@ -95,8 +95,14 @@ class Estimate:
     def __post_init__(self):
         for name in ("value", "lo", "hi"):
             v = getattr(self, name)
-            if not isinstance(v, (int, float, np.floating, np.integer)) or math.isnan(v):
-                raise ValueError(f"Estimate: {name} must be a number, got {v!r}")
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
+                raise TypeError(f"Estimate: {name} must be a number, got {v!r}")
+            if not math.isfinite(v):
+                raise ValueError(f"Estimate: {name} must be finite, got {v!r}")
+        if isinstance(self.n, bool) or not isinstance(self.n, (int, np.integer)) or self.n < 0:
+            raise ValueError(f"Estimate: n must be a non-negative integer, got {self.n!r}")
+        if not isinstance(self.method, str):
+            raise TypeError(f"Estimate: method must be a string, got {self.method!r}")
         if not self.lo <= self.hi:
             raise ValueError(f"Estimate: need lo <= hi, got [{self.lo}, {self.hi}]")
         if not 0.0 < self.level < 1.0:
@@ -373,8 +379,8 @@ def wilson_interval(k, n, z: float = 1.959963984540054):
         raise ValueError("wilson_interval: k, n and z must be finite")
     if np.any(n <= 0) or np.any(k < 0) or np.any(k > n):
         raise ValueError("wilson_interval: need 0 <= k <= n and n > 0")
-    if not z > 0:
-        raise ValueError(f"wilson_interval: z must be positive, got {z}")
+    if not 0 < z <= 40:
+        raise ValueError(f"wilson_interval: z must lie in (0, 40], got {z}")
     p = k / n
     den = 1 + z ** 2 / n
     centre = (p + z ** 2 / (2 * n)) / den
@@ -398,10 +404,11 @@ def rate_ci(k, n, *, level: float = LEVEL) -> Estimate:
         if arr.size != n:
             raise ValueError(f"rate_ci: k has {arr.size} runs but n = {n}")
         k = int(arr.sum())
-    if isinstance(k, bool) or isinstance(n, bool):
-        raise TypeError("rate_ci: k and n must be counts")
-    if float(k) != int(k) or float(n) != int(n):
-        raise ValueError("rate_ci: k and n must be whole numbers")
+    for name, v in (("k", k), ("n", n)):
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+            raise TypeError(f"rate_ci: {name} must be a count, got {v!r}")
+        if not math.isfinite(v) or float(v) != int(v):
+            raise ValueError(f"rate_ci: {name} must be a whole number, got {v!r}")
     z = float(ndtri(0.5 + level / 2))
     lo, hi = wilson_interval(int(k), int(n), z)
     return Estimate(int(k) / int(n), float(lo), float(hi), level, int(n), "Wilson")
@@ -412,7 +419,9 @@ def mcnemar_exact(b: int, c: int) -> float:
     (or fails) against ``c`` where only B does, under equal odds. Returns 1.0 when
     ``b = c = 0``."""
     for name, v in (("b", b), ("c", c)):
-        if isinstance(v, bool) or not float(v) == int(v) or int(v) < 0:
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+            raise TypeError(f"mcnemar_exact: {name} must be a count, got {v!r}")
+        if not math.isfinite(v) or float(v) != int(v) or int(v) < 0:
             raise ValueError(f"mcnemar_exact: {name} must be a non-negative count, got {v!r}")
     b, c = int(b), int(c)
     if b + c == 0:
