@@ -1344,8 +1344,8 @@ def imm_pdaf_track_packed():
     z, off, x0, P0 = _imm_pdaf_inputs()
     return (call(car(), z, off, x0, P0, 400.0 * np.eye(2), pd=0.9, pg=0.99,
                  clutter_density=5e-5, prev_position=None)
-            .rejects("models.T=-1", car()._replace(T=-1.0), z, off, x0, P0,
-                     400.0 * np.eye(2), match="T"))
+            .rejects("pd=1.1", car(), z, off, x0, P0, 400.0 * np.eye(2), pd=1.1, pg=0.99,
+                     clutter_density=5e-5, prev_position=None, match="pd"))
 
 
 @example()

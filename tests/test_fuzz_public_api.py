@@ -133,10 +133,19 @@ def _nan_where_no_detection(res, args, kwargs) -> bool:
 
 
 def _mean_scan_nan_when_none(res, args, kwargs) -> bool:
-    """``SprtSummary``: the mean decision scan of no decision is NaN."""
+    """``SprtSummary``: the mean decision scan of no decision is NaN, and so is the
+    interpolated crossing scan of a run-averaged statistic that never crosses."""
     return ((math.isnan(res.mean_scan_correct) == (res.p_correct == 0))
             and (math.isnan(res.mean_scan_wrong) == (res.p_wrong == 0))
-            and (math.isnan(res.mean_scan) == (res.p_undecided == 1)))
+            and (math.isnan(res.mean_scan) == (res.p_undecided == 1))
+            and (math.isnan(res.mean_llr_crossing_scan) == (res.mean_llr_crossing == 0)))
+
+
+def _mu_nan_for_cv_acm(res, args, kwargs) -> bool:
+    """``SprtAcmDiscrimination.mu``: the manoeuvre-mode probability exists only for an IMM
+    target filter; with the single CV filter it is NaN for the whole run, never in part."""
+    mu = np.asarray(res.mu).reshape(-1, *np.shape(res.mu)[-2:])
+    return all(bool(np.all(np.isnan(m))) or not bool(np.any(np.isnan(m))) for m in mu)
 
 
 #: Non-finite results that are the mathematically right answer:
@@ -188,14 +197,20 @@ ALLOWED_NONFINITE = {
     "houles_imm_trial": [("out.nis", {"nan"}, _nis_nan_where_missed,
                           "no NIS for a scan where the target was not detected: NaN")],
     "sprt_acm_discriminate": [("out.nis", {"nan"}, _nis_nan_first_scan_acm,
-                               "the decoy filters have no innovation at the first scan")],
+                               "the decoy filters have no innovation at the first scan"),
+                              ("out.mu", {"nan"}, _mu_nan_for_cv_acm,
+                               "only an IMM target filter has a manoeuvre-mode probability")],
     "sprt_acm_trial": [("out.nis", {"nan"}, _nis_nan_first_scan_acm,
-                        "the decoy filters have no innovation at the first scan")],
+                        "the decoy filters have no innovation at the first scan"),
+                       ("out.mu", {"nan"}, _mu_nan_for_cv_acm,
+                        "only an IMM target filter has a manoeuvre-mode probability")],
     "sprt_acm_monte_carlo": [("out.nis", {"nan"}, _nis_nan_first_scan_acm,
-                              "the decoy filters have no innovation at the first scan")],
+                              "the decoy filters have no innovation at the first scan"),
+                             ("out.mu", {"nan"}, _mu_nan_for_cv_acm,
+                              "only an IMM target filter has a manoeuvre-mode probability")],
     "tbd_measurement_errors": [("out", {"nan"}, _nan_where_no_detection,
                                 "no measurement error for a scan without a detection: NaN")],
-    "sprt_summary": [("out.mean_scan*", {"nan"}, _mean_scan_nan_when_none,
+    "sprt_summary": [("out.mean_*", {"nan"}, _mean_scan_nan_when_none,
                       "the mean decision scan over no decision is undefined: NaN")],
     "track_delays": [("out", {"nan"}, None,
                       "NaN: a target never confirmed has no confirmation delay, one alive to "
