@@ -1,4 +1,7 @@
-"""trackcore.association: see ARCHITECTURE.md for what this layer holds.
+"""trackcore.association: gating, PDA and JPDA association probabilities (enumeration and
+hypothesis net), the HPDA highest-probability selection.
+
+The book's appendix "Design of trackcore" places this layer among the others.
 
 Every public name in a module's ``__all__`` is re-exported here.
 """

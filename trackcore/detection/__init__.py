@@ -1,4 +1,7 @@
-"""trackcore.detection: see ARCHITECTURE.md for what this layer holds.
+"""trackcore.detection: detection statistics: Marcum Q and radar detection probability, Wald's
+SPRT, image-based detection (background subtraction, patch correlation).
+
+The book's appendix "Design of trackcore" places this layer among the others.
 
 Every public name in a module's ``__all__`` is re-exported here.
 """

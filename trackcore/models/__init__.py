@@ -1,4 +1,7 @@
-"""trackcore.models: see ARCHITECTURE.md for what this layer holds.
+"""trackcore.models: motion and measurement models: transition matrices, process noises,
+measurement functions and their Jacobians.
+
+The book's appendix "Design of trackcore" places this layer among the others.
 
 Every public name in a module's ``__all__`` is re-exported here.
 """

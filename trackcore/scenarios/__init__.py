@@ -1,4 +1,7 @@
-"""trackcore.scenarios: see ARCHITECTURE.md for what this layer holds.
+"""trackcore.scenarios: the simulated worlds of the chapters: truth, measurements, clutter and
+Monte Carlo trial functions for each paper's experiments.
+
+The book's appendix "Design of trackcore" places this layer among the others.
 
 Every public name in a module's ``__all__`` is re-exported here.
 """

@@ -1,4 +1,8 @@
-"""trackcore.trackers: see ARCHITECTURE.md for what this layer holds.
+"""trackcore.trackers: complete trackers built from the layers below: IMM-PDAF, the HPDA
+particle filter, the clustering hybrid, SMC-PHD, the SPRT discriminator, the
+track-before-detect particle filters and the feature-aided JPDA tracker.
+
+The book's appendix "Design of trackcore" places this layer among the others.
 
 Every public name in a module's ``__all__`` is re-exported here.
 """
