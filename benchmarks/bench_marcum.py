@@ -2,14 +2,17 @@
 
 ``Q1(a, b) = P(X > b^2)`` for ``X`` non-central chi-square with 2 degrees of freedom and
 non-centrality ``a^2``, so ``scipy.stats.ncx2.sf(b**2, 2, a**2)`` (Boost's algorithm) is
-``Q1`` and ``ncx2.cdf`` is ``1 - Q1``; ``scipy.special.chndtr`` is the same cdf as a bare
-ufunc (no distribution-object overhead).  Workload of the book's detection chapters: ``a =
-sqrt(2 SNR)`` at SNR 0, 2, ..., 40 dB, ``b = sqrt(2 ln 10^6)`` (``P_fa = 1e-6``).
+``Q1`` and ``ncx2.cdf`` is ``1 - Q1``.  The distribution object checks and broadcasts its
+arguments in Python before it calls a ufunc; the bare ufuncs are
+``scipy.special.chndtr`` (the cdf, public) and ``scipy.special._ufuncs._ncx2_sf`` (the sf
+that ``ncx2.sf`` calls; private, so looked up defensively).  Workload of the book's
+detection chapters: ``a = sqrt(2 SNR)`` at SNR 0, 2, ..., 40 dB, ``b = sqrt(2 ln 10^6)``
+(``P_fa = 1e-6``).
 
 * Per element: arrays of 10^4 values (SNR spread by 1 % so that no two are equal);
-  trackcore ``marcum_q1(a, b)`` and ``marcum_q1_complement(a, b)`` against ``ncx2.sf`` and
-  ``ncx2.cdf`` / ``chndtr``.
-* Per scalar call: one Python float at a time, ``marcum_q1`` against ``ncx2.sf``.
+  trackcore ``marcum_q1(a, b)`` against ``ncx2.sf`` and the bare sf ufunc, and
+  ``marcum_q1_complement(a, b)`` against ``ncx2.cdf`` and ``chndtr``.
+* Per scalar call: one Python float at a time, the same four comparisons.
 
 Before timing, the values are compared: relative difference to ``ncx2.sf`` where scipy's
 value is above 1e-290, to ``ncx2.cdf`` where it is above 1e-12 (below that scipy's cdf
@@ -27,6 +30,15 @@ import numpy as np
 from trackcore.detection import marcum_q1, marcum_q1_complement
 
 from ._common import Stopwatch, record
+
+
+def _bare_sf():
+    """SciPy's bare non-central chi-square sf ufunc, or None if this SciPy has none."""
+    try:
+        from scipy.special._ufuncs import _ncx2_sf
+    except ImportError:
+        return None
+    return _ncx2_sf
 
 SNR_DB = tuple(float(x) for x in np.arange(0.0, 40.01, 2.0))
 SCALAR_SNR_DB = (0.0, 10.0, 20.0, 30.0, 40.0)
@@ -58,11 +70,13 @@ def bench_marcum() -> list[dict]:
     from scipy.stats import ncx2
 
     rng = np.random.default_rng(20261124)
+    sf_ufunc = _bare_sf()
     b = math.sqrt(-2.0 * math.log(PFA))
     rows = []
     marcum_q1(np.ones(4), b)            # load the compiled kernels
     marcum_q1_complement(np.ones(4), b)
     marcum_q1(1.0, b)
+    marcum_q1_complement(1.0, b)
     for db in SNR_DB:
         snr = 10.0 ** (db / 10.0) * (1.0 + 0.01 * rng.random(N_ELEMENTS))
         a = np.sqrt(2.0 * snr)
@@ -81,6 +95,8 @@ def bench_marcum() -> list[dict]:
         }
         if agree["sf_max_rel_diff"] > 1e-9 or agree["cdf_max_rel_diff"] > 1e-9:
             raise AssertionError(f"Marcum Q at {db} dB: trackcore and scipy differ: {agree}")
+        if sf_ufunc is not None and not np.array_equal(sf_ufunc(b2, 2.0, a2), sf):
+            raise AssertionError("the bare sf ufunc is not what ncx2.sf computes")
         paths = {
             "trackcore_q1": lambda: marcum_q1(a, bb),
             "scipy_ncx2_sf": lambda: ncx2.sf(b2, 2, a2),
@@ -88,6 +104,8 @@ def bench_marcum() -> list[dict]:
             "scipy_ncx2_cdf": lambda: ncx2.cdf(b2, 2, a2),
             "scipy_chndtr": lambda: special.chndtr(b2, 2.0, a2),
         }
+        if sf_ufunc is not None:
+            paths["scipy_ncx2_sf_ufunc"] = lambda: sf_ufunc(b2, 2.0, a2)
         times = {k: [] for k in paths}
         for _ in range(REPS):                       # interleaved
             for k, fn in paths.items():
@@ -96,29 +114,42 @@ def bench_marcum() -> list[dict]:
                   "b": b, "pfa": PFA, "elements": N_ELEMENTS, **agree}
         for k in paths:
             extra = {}
-            if k == "scipy_ncx2_sf":
-                extra["ratio_to_trackcore"] = _ratios(times["trackcore_q1"], times[k])
-            elif k in ("scipy_ncx2_cdf", "scipy_chndtr"):
-                extra["ratio_to_trackcore"] = _ratios(times["trackcore_q1_complement"], times[k])
+            if k in PEER_OF:
+                extra["ratio_to_trackcore"] = _ratios(times[PEER_OF[k]], times[k])
             rows.append(record("marcum_array", k, db, median(times[k]), unit="element",
                                trials=times[k], **extra, **common))
     for db in SCALAR_SNR_DB:
         a = math.sqrt(2.0 * 10.0 ** (db / 10.0))
-        if not math.isclose(marcum_q1(a, b), float(ncx2.sf(b * b, 2, a * a)), rel_tol=1e-9):
+        a2, b2 = a * a, b * b
+        if not math.isclose(marcum_q1(a, b), float(ncx2.sf(b2, 2, a2)), rel_tol=1e-9):
             raise AssertionError(f"Marcum Q scalar at {db} dB differs from scipy")
+        qc = marcum_q1_complement(a, b)
+        if qc > 1e-12 and not math.isclose(qc, float(special.chndtr(b2, 2.0, a2)),
+                                           rel_tol=1e-9):
+            raise AssertionError(f"Marcum 1 - Q scalar at {db} dB differs from scipy")
         paths = {"trackcore_q1": lambda: marcum_q1(a, b),
-                 "scipy_ncx2_sf": lambda: ncx2.sf(b * b, 2, a * a)}
+                 "scipy_ncx2_sf": lambda: ncx2.sf(b2, 2, a2),
+                 "trackcore_q1_complement": lambda: marcum_q1_complement(a, b),
+                 "scipy_chndtr": lambda: special.chndtr(b2, 2.0, a2)}
+        if sf_ufunc is not None:
+            paths["scipy_ncx2_sf_ufunc"] = lambda: sf_ufunc(b2, 2.0, a2)
         times = {k: [] for k in paths}
         for _ in range(REPS):
             for k, fn in paths.items():
                 times[k].append(_time(fn, min_seconds=0.01))
         for k in paths:
             extra = {}
-            if k == "scipy_ncx2_sf":
-                extra["ratio_to_trackcore"] = _ratios(times["trackcore_q1"], times[k])
+            if k in PEER_OF:
+                extra["ratio_to_trackcore"] = _ratios(times[PEER_OF[k]], times[k])
             rows.append(record("marcum_scalar", k, db, median(times[k]), unit="call",
                                trials=times[k], snr_db=db, b=b, pfa=PFA, **extra))
     return rows
+
+
+#: the trackcore path each SciPy path is compared with
+PEER_OF = {"scipy_ncx2_sf": "trackcore_q1", "scipy_ncx2_sf_ufunc": "trackcore_q1",
+           "scipy_ncx2_cdf": "trackcore_q1_complement",
+           "scipy_chndtr": "trackcore_q1_complement"}
 
 
 WORKLOADS = {"marcum": bench_marcum}

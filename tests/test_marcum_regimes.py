@@ -149,6 +149,40 @@ def test_series_side_switch_y_equals_x_plus_1(x, side):
     _check(a, b)
 
 
+@pytest.mark.parametrize("side", [1.0 - 1e-9, 1.0 + 1e-9])
+@pytest.mark.parametrize("b", [0.01, 0.3, 1.0, 1.5, 1.99])
+def test_complement_series_switch_x_equals_1(b, side):
+    """The 1 - Q1 series (y <= x + 1, xi < 40) sums ``y^{k-1}/k! e_{k-1}`` for x < 1 and
+    the rearranged ``(xy)^{k-1}/(k!(k-1)!) f_{k-1}`` for x >= 1: both sides of x = 1."""
+    a = math.sqrt(2.0 * side)
+    assert 0.5 * b * b <= 0.5 * a * a + 1.0 and a * b < XI_ASYMPTOTIC
+    _check(a, b)
+
+
+@pytest.mark.parametrize("factor", [0.5, 0.99, 1.01, 2.0])
+def test_underflowing_leading_factor_of_the_asymptotic_expansion(factor):
+    """Where the leading factor ``sqrt(b/a)/2 erfcx(t)`` of the expansion falls below
+    1e-290 (only for ``z = (b - a)^2/2`` near 1e305: here a = 1e153, b near 6.3e-121) the
+    kernel forms its logarithm from logs instead.  On both sides of that switch
+    ``log(1 - Q1)`` is finite and equals the leading asymptotics ``-z + log(sqrt(b/a)/2
+    erfcx(t))`` (relative 1e-15, which at this size is ``-z`` to the last digit), and the
+    values underflow to 0 and 1 as they should."""
+    from scipy.special import erfcx
+
+    a = 1e153
+    b = 6.3e-121 * factor
+    t = (a - b) / math.sqrt(2.0)
+    lead = 0.5 * math.sqrt(b / a) * erfcx(t)
+    assert (lead > 1e-290) == (factor > 1.0)
+    z = t * t
+    expected = -z + 0.5 * (math.log(b) - math.log(a)) + math.log(0.5 * erfcx(t))
+    got = log_marcum_q1_complement(a, b)
+    assert math.isfinite(got) and got == pytest.approx(expected, rel=1e-15)
+    lq, lp = log_marcum_q1_pair_kernel(a, b)
+    assert lp == got and lq == 0.0
+    assert marcum_q1_complement(a, b) == 0.0 and marcum_q1(a, b) == 1.0
+
+
 @pytest.mark.parametrize("sign", [-1.0, 1.0])
 @pytest.mark.parametrize("side", [1.0 - 1e-9, 1.0 + 1e-9])
 @pytest.mark.parametrize("a", [8.0, 20.0, 60.0])

@@ -31,11 +31,24 @@ Choices made here:
 * Frontier elements occupy bit slots (the lowest free slot when an element enters the
   frontier, freed when it leaves); a layer's nodes are the ``2^{slots}`` masks, stored
   densely.  Forward weights are kept for every layer, each layer scaled to a maximum of
-  1 (its logarithm kept aside); every processed element's options are scaled to a
-  maximum of 1 as well, so nothing overflows and only contributions below 1e-308 of the
-  largest are lost.
+  1 (its logarithm kept aside, restarted at every connected component in the
+  parametric form); every processed element's options are scaled to a maximum of 1 as
+  well, so nothing overflows.
+* Underflow is excluded by a certificate, not assumed away: layer by layer, from the
+  smallest nonzero value actually stored in the layer before and the smallest nonzero
+  weight of the layer, every nonzero value and product the net forms has a lower bound;
+  while every bound stays above ``exp(LOG_TINY)`` (1e-290) no term is lost and every
+  marginal keeps full relative precision.  When a bound falls below (weights spanning
+  hundreds of decades, whose largest terms sit at incompatible nodes) the scaled net
+  stops with status 3 and :func:`net_marginals_log` repeats the computation with every
+  value kept as a logarithm (several times slower; nothing can underflow).  The caller
+  also checks the output (finite, columns summing to 1).
 * The number of feasible events is counted by the same net with unit weights (in
-  floating point: exact below ``2**53``).
+  floating point: exact below ``2**53``), rescaled by exact powers of two so that it
+  never overflows (``count * 2**exp2``).
+* Limits, checked before any work: ``MAX_SLOTS`` frontier elements, ``MAX_CELLS`` stored
+  values (the memory), ``MAX_COST`` node visits (the time; ``MAX_LOG_COST`` for the
+  log-space net).
 
 The functions here are kernels: :func:`trackcore.association.jpda_marginals` validates
 the input and calls them.
@@ -47,14 +60,23 @@ import math
 import numba as nb
 import numpy as np
 
-#: largest number of frontier slots (a layer of 2^26 nodes)
-MAX_SLOTS = 26
-#: largest number of stored forward weights over all layers (8 bytes each: 1 GiB)
-MAX_CELLS = 1 << 27
-#: cost estimate (node x option visits) above which the net is not attempted
-MAX_COST = 2.0e10
+#: largest number of frontier slots (a layer of 2^24 nodes)
+MAX_SLOTS = 24
+#: largest number of stored forward weights over all layers (8 bytes each: 512 MiB)
+MAX_CELLS = 1 << 26
+#: cost estimate (node x option visits, a few ns each) above which the net is not attempted
+MAX_COST = 1.0e9
+#: the same for the log-space net (about 20 ns per visit)
+MAX_LOG_COST = 2.5e8
+#: log of the smallest value a product of the scaled linear net may take (1e-290, a normal
+#: double with a margin); where a layer's bound falls below it the log-space net is used
+LOG_TINY = math.log(1e-290)
+#: the event counts are rescaled by ``2**-COUNT_SHIFT`` (exactly) above ``2**COUNT_SHIFT``
+COUNT_SHIFT = 512
 
 _NEG_INF = -np.inf
+_COUNT_BIG = 2.0**COUNT_SHIFT
+_COUNT_SMALL = 2.0**-COUNT_SHIFT
 
 
 @nb.njit(cache=True)
@@ -471,102 +493,202 @@ def _retire(src, cnt_src, n_int, D1, r0, r1, ret_slot, ret_v, dst, cnt_dst, n_ds
 
 
 @nb.njit(cache=True)
+def _count_retire(cnt_src, n_int, r0, r1, ret_slot, cnt_dst, n_dst):
+    """:func:`_retire` for the event counts alone."""
+    for i in range(n_dst):
+        cnt_dst[i] = 0.0
+    for s in range(n_int):
+        tgt = s
+        for r in range(r0, r1):
+            bit = 1 << ret_slot[r]
+            if s & bit:
+                tgt ^= bit
+        cnt_dst[tgt] += cnt_src[s]
+
+
+@nb.njit(cache=True)
+def _rescale_counts(cnt, n):
+    """Multiply ``cnt[:n]`` by ``2**-COUNT_SHIFT`` (exact) once its maximum exceeds
+    ``2**COUNT_SHIFT``; returns the power of two taken out (0 or ``COUNT_SHIFT``)."""
+    mx = 0.0
+    for i in range(n):
+        mx = max(mx, cnt[i])
+    if mx <= _COUNT_BIG:
+        return 0
+    for i in range(n):
+        cnt[i] *= _COUNT_SMALL
+    return COUNT_SHIFT
+
+
+@nb.njit(cache=True)
 def _normalise(x, n):
-    """Scale ``x[:n]`` to a maximum of 1; returns the log of the factor (``-inf`` if 0)."""
+    """Scale ``x[:n]`` to a maximum of 1; returns the log of the factor (``-inf`` if all
+    are 0) and the log of the smallest nonzero value after scaling."""
     mx = 0.0
     for i in range(n):
         mx = max(mx, x[i])
     if mx == 0.0:
-        return _NEG_INF
+        return _NEG_INF, 0.0
     inv = 1.0 / mx
+    mn = 1.0
     for i in range(n):
-        x[i] *= inv
-    return math.log(mx)
+        v = x[i] * inv
+        x[i] = v
+        if 0.0 < v < mn:
+            mn = v
+    return math.log(mx), math.log(mn)
 
 
 @nb.njit(cache=True)
-def net_marginals(logw, valid, log_miss, lg_count, marginals=True):
-    """Exact JPDA marginals by the hypothesis net.
+def _limits(valid, D1, marginals, max_cost):
+    """The plan and its size: ``(plan..., status, info)`` with ``status`` 1 when a limit
+    (``MAX_SLOTS``, ``MAX_CELLS`` if ``marginals``, ``max_cost``) is exceeded and
+    ``info = [frontier slots, stored values, cost]``."""
+    (layers, sizes, opt_ptr, opt_slot, opt_j, opt_t, ret_ptr, ret_slot, ret_side, ret_idx,
+     cost, isolated) = _plan(valid)
+    L = layers.shape[0]
+    info = np.zeros(3)
+    info[2] = cost * D1
+    if cost == np.inf:
+        info[0] = 64.0
+        info[1] = np.inf
+        return (layers, sizes, opt_ptr, opt_slot, opt_j, opt_t, ret_ptr, ret_slot, ret_side,
+                ret_idx, isolated, 1, info)
+    cells = 0.0
+    mx = 0
+    for k in range(L):
+        cells += (2.0 ** sizes[k, 0]) * D1
+        mx = max(mx, sizes[k, 1])
+    info[0] = mx
+    info[1] = cells if marginals else (2.0 ** mx) * D1
+    status = 0
+    if mx > MAX_SLOTS or info[2] > max_cost or (marginals and cells > MAX_CELLS):
+        status = 1
+    return (layers, sizes, opt_ptr, opt_slot, opt_j, opt_t, ret_ptr, ret_slot, ret_side,
+            ret_idx, isolated, status, info)
+
+
+@nb.njit(cache=True)
+def _layer_weights(logw, log_miss, layers, opt_ptr, opt_j, opt_t, ret_ptr, ret_side, ret_idx):
+    """Log weights of every layer's options and null option, scaled so that the largest
+    of a layer is 1 (``opt_lw``, ``null_lw``); the log factors of the elements leaving the
+    frontier unused (``ret_lv``: ``log(1 - P_D)`` of a target, 0 of a measurement); per
+    layer, the log of its smallest nonzero scaled weight (``lo``) and the sum of its
+    leaving elements' nonzero log factors (``rv``)."""
+    L = layers.shape[0]
+    n_opt = opt_ptr[L]
+    opt_lw = np.empty(n_opt)
+    null_lw = np.empty(L)
+    lo = np.zeros(L)
+    for k in range(L):
+        ln = log_miss[layers[k, 1]] if layers[k, 0] == 0 else 0.0
+        mx = ln
+        for o in range(opt_ptr[k], opt_ptr[k + 1]):
+            mx = max(mx, logw[opt_j[o], opt_t[o]])
+        if mx == _NEG_INF:
+            mx = 0.0
+        null_lw[k] = ln - mx
+        mn = null_lw[k] if null_lw[k] > _NEG_INF else 0.0
+        for o in range(opt_ptr[k], opt_ptr[k + 1]):
+            v = logw[opt_j[o], opt_t[o]] - mx
+            opt_lw[o] = v
+            if _NEG_INF < v < mn:
+                mn = v
+        lo[k] = mn
+    ret_lv = np.empty(ret_ptr[L])
+    rv = np.zeros(L)
+    for k in range(L):
+        for r in range(ret_ptr[k], ret_ptr[k + 1]):
+            ret_lv[r] = log_miss[ret_idx[r]] if ret_side[r] == 0 else 0.0
+            if ret_lv[r] > _NEG_INF:
+                rv[k] += ret_lv[r]
+    return opt_lw, null_lw, ret_lv, lo, rv
+
+
+@nb.njit(cache=True)
+def net_marginals(logw, valid, log_miss, lg_count):
+    """Exact JPDA marginals by the hypothesis net in scaled linear arithmetic.
 
     ``logw`` (m, T): log weight of pair (j, t) *including* ``log P_D^t`` (``-inf`` where
     invalid or zero); ``valid`` (m, T): the validation matrix (structure, for counting);
     ``log_miss`` (T,): ``log(1 - P_D^t)``; ``lg_count`` (D + 1,): log factor of the total
     number of matched pairs ``d = 0..D`` (all zeros of length 1 for the parametric
-    form, which then has no count dimension).  With ``marginals=False`` only the events
-    are counted.
+    form, which then has no count dimension).
 
-    Returns ``(beta (m + 1, T), n_events, status)``; ``n_events`` is a float (exact below
-    ``2**53``); status 0 = ok, 1 = the net is too large (``MAX_SLOTS``/``MAX_CELLS``/
-    ``MAX_COST``), 2 = every event has zero weight.
+    Returns ``(beta (m + 1, T), count, count_exp2, status, info)``: the number of feasible
+    events is ``count * 2**count_exp2`` (``count_exp2 = 0`` and ``count`` exact below
+    ``2**53``); status 0 = ok, 1 = the net exceeds a limit (``info`` = [frontier slots,
+    stored values, cost]), 2 = every event has zero weight, 3 = not certified: some
+    product of the scaled weights could fall below ``exp(LOG_TINY)`` (use
+    :func:`net_marginals_log`).
+
+    The certificate: every nonzero node value, weight and product formed here is bounded
+    below, layer by layer, from the smallest nonzero value actually stored in the layer
+    before and the smallest nonzero weight of the layer; when every bound stays above
+    ``exp(LOG_TINY)`` no term underflows and every marginal has full relative precision.
     """
     m, T = valid.shape
     beta = np.zeros((m + 1, T))
-    (layers, sizes, opt_ptr, opt_slot, opt_j, opt_t, ret_ptr, ret_slot, ret_side, ret_idx,
-     cost, isolated) = _plan(valid)
     D1 = lg_count.shape[0]
-    L = layers.shape[0]
+    (layers, sizes, opt_ptr, opt_slot, opt_j, opt_t, ret_ptr, ret_slot, ret_side, ret_idx,
+     isolated, status, info) = _limits(valid, D1, True, MAX_COST)
     # isolated targets: missed with certainty (weight 1 - P_D, zero if P_D = 1)
     for t in range(T):
         if isolated[t]:
             beta[0, t] = 1.0
-            if marginals and log_miss[t] == _NEG_INF:
-                return beta, 0.0, 2
-    if cost * D1 > MAX_COST:
-        return beta, 0.0, 1
-    cells = 0
+            if log_miss[t] == _NEG_INF:
+                return beta, 0.0, 0, 2, info
+    if status:
+        return beta, 0.0, 0, 1, info
+    L = layers.shape[0]
     max_int = 0
     for k in range(L):
-        if sizes[k, 1] > MAX_SLOTS:
-            return beta, 0.0, 1
-        cells += (1 << sizes[k, 0]) * D1
         max_int = max(max_int, sizes[k, 1])
-    if marginals and cells > MAX_CELLS:
-        return beta, 0.0, 1
-    # scaled linear weights: options of each layer scaled to a maximum of 1
+    opt_lw, null_lw, ret_lv, lo, rv = _layer_weights(logw, log_miss, layers, opt_ptr, opt_j,
+                                                     opt_t, ret_ptr, ret_side, ret_idx)
     n_opt = opt_ptr[L]
     opt_w = np.empty(n_opt)
+    for o in range(n_opt):
+        opt_w[o] = math.exp(opt_lw[o])
     null_w = np.empty(L)
     for k in range(L):
-        ln = log_miss[layers[k, 1]] if layers[k, 0] == 0 else 0.0
-        mx = ln
-        for o in range(opt_ptr[k], opt_ptr[k + 1]):
-            lw = logw[opt_j[o], opt_t[o]]
-            mx = max(mx, lw)
-        if mx == _NEG_INF:
-            mx = 0.0
-        null_w[k] = math.exp(ln - mx)
-        for o in range(opt_ptr[k], opt_ptr[k + 1]):
-            opt_w[o] = math.exp(logw[opt_j[o], opt_t[o]] - mx)
+        null_w[k] = math.exp(null_lw[k])
     ret_v = np.empty(ret_ptr[L])
     for r in range(ret_ptr[L]):
-        ret_v[r] = math.exp(log_miss[ret_idx[r]]) if ret_side[r] == 0 else 1.0
+        ret_v[r] = math.exp(ret_lv[r])
     # ---------------------------------------------------------------- forward
     # nodes of layer k (before its options) are stored for the backward pass
     off = np.zeros(L + 2, np.int64)
     for k in range(L):
-        off[k + 1] = off[k] + ((1 << sizes[k, 0]) * D1 if marginals else 0)
+        off[k + 1] = off[k] + (1 << sizes[k, 0]) * D1
     off[L + 1] = off[L] + D1
     alpha = np.zeros(off[L + 1])
-    a_scale = np.zeros(L + 1)
+    a_scale = np.zeros(L + 1)       # log scale of the stored layer (see ``local``)
+    a_min = np.zeros(L + 1)         # log of the smallest nonzero stored value per layer
+    # parametric form: scales restart at every connected component (a layer with an
+    # empty frontier before it), so that the exponent of ``fac`` below only involves the
+    # component's own scales (no cancellation between large sums over other components)
+    local = D1 == 1
     n_max = (1 << max_int) * D1
     a_int = np.empty(n_max)
-    a_cur = np.empty(n_max)          # the current layer when not stored (counting only)
     cnt = np.zeros(1 << max_int)
     cnt_int = np.empty(1 << max_int)
-    if marginals:
-        alpha[0] = 1.0
-    else:
-        a_cur[0] = 1.0
+    c_exp = 0
+    alpha[0] = 1.0
     cnt[0] = 1.0
     for k in range(L):
         s_pre = sizes[k, 0]
         n_int = 1 << sizes[k, 1]
         n_next = (1 << sizes[k + 1, 0]) if k + 1 < L else 1
-        a_k = alpha[off[k]:off[k + 1]] if marginals else a_cur
-        a_next = alpha[off[k + 1]:off[k + 2]] if marginals else a_cur
+        a_k = alpha[off[k]:off[k + 1]]
+        a_next = alpha[off[k + 1]:off[k + 2]]
         r0 = ret_ptr[k]
         r1 = ret_ptr[k + 1]
-        direct = r0 == r1 and n_int == n_next and marginals
+        # every nonzero value formed in this layer is at least exp(bound) before scaling
+        bound = a_min[k] + lo[k] + rv[k]
+        if bound < LOG_TINY:
+            return beta, 0.0, 0, 3, info
+        direct = r0 == r1 and n_int == n_next
         _pull(a_k, s_pre, n_int, D1, opt_ptr[k], opt_ptr[k + 1], opt_slot, opt_w, null_w[k],
               a_next if direct else a_int)
         _count_pull(cnt, s_pre, n_int, opt_ptr[k], opt_ptr[k + 1], opt_slot, cnt_int)
@@ -576,27 +698,34 @@ def net_marginals(logw, valid, log_miss, lg_count, marginals=True):
         else:
             _retire(a_int, cnt_int, n_int, D1, r0, r1, ret_slot, ret_v, a_next, cnt, n_next,
                     True)
-        if marginals:
-            ls = _normalise(a_next, n_next * D1)
-            if ls == _NEG_INF:
-                return beta, 0.0, 2
-            a_scale[k + 1] = a_scale[k] + ls
+        c_exp += _rescale_counts(cnt, n_next)
+        ls, lmin = _normalise(a_next, n_next * D1)
+        if ls == _NEG_INF:
+            return beta, 0.0, 0, 2, info
+        if bound - max(ls, 0.0) < LOG_TINY:
+            return beta, 0.0, 0, 3, info
+        # per component in the parametric form (D1 = 1: the components are independent)
+        a_scale[k + 1] = (0.0 if local and s_pre == 0 else a_scale[k]) + ls
+        a_min[k + 1] = lmin
     n_ev = cnt[0]
-    if not marginals:
-        return beta, n_ev, 0
     # total: sum_d alpha_L[d] g(d)
     gmax = _NEG_INF
     for d in range(D1):
         gmax = max(gmax, lg_count[d])
     g = np.empty(D1)
+    g_min = 0.0
     zt = 0.0
     a_L = alpha[off[L]:off[L + 1]]
     for d in range(D1):
         g[d] = math.exp(lg_count[d] - gmax)
+        g_min = min(g_min, lg_count[d] - gmax)
         zt += a_L[d] * g[d]
+    if a_min[L] + g_min < LOG_TINY:
+        return beta, 0.0, 0, 3, info
     if zt == 0.0:
-        return beta, n_ev, 2
+        return beta, n_ev, c_exp, 2, info
     log_z = math.log(zt) + a_scale[L]
+    log_zc = log_z
     # ---------------------------------------------------------------- backward
     b_next = np.zeros(n_max)
     b_cur = np.zeros(n_max)
@@ -604,6 +733,7 @@ def net_marginals(logw, valid, log_miss, lg_count, marginals=True):
     for d in range(D1):
         b_next[d] = g[d]
     b_scale = 0.0
+    b_min = g_min
     acc_opt = np.zeros(n_opt)
     acc_null = np.zeros(L)
     acc_ret = np.zeros(ret_ptr[L])
@@ -614,6 +744,11 @@ def net_marginals(logw, valid, log_miss, lg_count, marginals=True):
         n_next = (1 << sizes[k + 1, 0]) if k + 1 < L else 1
         r0 = ret_ptr[k]
         r1 = ret_ptr[k + 1]
+        # nonzero backward values after the retirement are at least exp(b_min + rv[k]);
+        # every product with a forward value and a weight at least exp(bound)
+        bound = a_min[k] + lo[k] + b_min + rv[k]
+        if bound < LOG_TINY:
+            return beta, 0.0, 0, 3, info
         if r0 == r1 and n_int == n_next:
             b_int = b_next
         else:
@@ -629,7 +764,14 @@ def net_marginals(logw, valid, log_miss, lg_count, marginals=True):
                         f *= ret_v[r]
                 for d in range(D1):
                     b_int[s * D1 + d] = f * b_next[tgt * D1 + d]
-        fac = math.exp(a_scale[k] + b_scale - log_z)
+        if local and (k + 1 == L or sizes[k + 1, 0] == 0):
+            # last layer of a component: its total, and the backward scale restarts
+            log_zc = log_z if k + 1 == L else a_scale[k + 1]
+            b_scale = 0.0
+        a_eff = 0.0 if local and s_pre == 0 else a_scale[k]
+        fac = math.exp(a_eff + b_scale - log_zc)
+        if not fac < np.inf:
+            return beta, 0.0, 0, 3, info
         a_k = alpha[off[k]:off[k + 1]]
         # targets leaving the frontier unused (measurements processed): their miss marginal
         has_t = False
@@ -655,14 +797,17 @@ def net_marginals(logw, valid, log_miss, lg_count, marginals=True):
         acc_null[k] = acc_n * null_w[k] * fac
         for o in range(o0, o1):
             acc_opt[o] *= opt_w[o] * fac
-        ls = _normalise(b_cur, n_pre * D1)
+        ls, lmin = _normalise(b_cur, n_pre * D1)
         if ls == _NEG_INF:
             for i in range(n_pre * D1):
                 b_next[i] = 0.0
         else:
+            if b_min + rv[k] + lo[k] - max(ls, 0.0) < LOG_TINY:
+                return beta, 0.0, 0, 3, info
             for i in range(n_pre * D1):
                 b_next[i] = b_cur[i]
             b_scale += ls
+            b_min = lmin
     # ---------------------------------------------------------------- outputs
     for o in range(n_opt):
         beta[opt_j[o] + 1, opt_t[o]] = acc_opt[o]
@@ -672,14 +817,287 @@ def net_marginals(logw, valid, log_miss, lg_count, marginals=True):
     for r in range(ret_ptr[L]):
         if ret_side[r] == 0:
             beta[0, ret_idx[r]] = acc_ret[r]
-    return beta, n_ev, 0
+    return beta, n_ev, c_exp, 0, info
+
+
+# ------------------------------------------------------------------- log-space net
+@nb.njit(cache=True)
+def _lae(x, y):
+    """``log(exp(x) + exp(y))``, ``-inf`` safe."""
+    if x == _NEG_INF:
+        return y
+    if y == _NEG_INF:
+        return x
+    if x >= y:
+        return x + math.log1p(math.exp(y - x))
+    return y + math.log1p(math.exp(x - y))
+
+
+@nb.njit(cache=True)
+def _pull_log(a_k, s_pre, n_int, D1, o0, o1, opt_slot, opt_lw, null_lw, out):
+    """:func:`_pull` on log values."""
+    n_pre = 1 << s_pre
+    for i in range(n_pre * D1):
+        out[i] = a_k[i] + null_lw
+    for i in range(n_pre * D1, n_int * D1):
+        out[i] = _NEG_INF
+    for o in range(o0, o1):
+        lw = opt_lw[o]
+        if lw == _NEG_INF:
+            continue
+        c = opt_slot[o]
+        bit = 1 << c
+        if c < s_pre:
+            starts = range(bit, n_pre, 2 * bit)
+            length = bit
+        else:
+            starts = range(bit, bit + 1)
+            length = n_pre
+        for st in starts:
+            for s2 in range(st, st + length):
+                b2 = s2 * D1
+                b1 = (s2 - bit) * D1
+                if D1 == 1:
+                    out[b2] = _lae(out[b2], a_k[b1] + lw)
+                else:
+                    for d in range(1, D1):
+                        out[b2 + d] = _lae(out[b2 + d], a_k[b1 + d - 1] + lw)
+
+
+@nb.njit(cache=True)
+def _back_log(a_k, b_int, s_pre, D1, o0, o1, opt_slot, opt_lw, null_lw, b_cur, acc_opt):
+    """:func:`_back` on log values (``acc_opt[o]`` is set, not added to)."""
+    n_pre = 1 << s_pre
+    acc_n = _NEG_INF
+    for i in range(n_pre * D1):
+        b_cur[i] = b_int[i] + null_lw
+        acc_n = _lae(acc_n, a_k[i] + b_int[i])
+    for o in range(o0, o1):
+        lw = opt_lw[o]
+        c = opt_slot[o]
+        bit = 1 << c
+        if c < s_pre:
+            starts = range(0, n_pre, 2 * bit)
+            length = bit
+        else:
+            starts = range(1)
+            length = n_pre
+        acc = _NEG_INF
+        for st in starts:
+            for s in range(st, st + length):
+                b1 = s * D1
+                b2 = (s + bit) * D1
+                if D1 == 1:
+                    v = b_int[b2]
+                    b_cur[b1] = _lae(b_cur[b1], v + lw)
+                    acc = _lae(acc, a_k[b1] + v)
+                else:
+                    for d in range(D1 - 1):
+                        v = b_int[b2 + d + 1]
+                        b_cur[b1 + d] = _lae(b_cur[b1 + d], v + lw)
+                        acc = _lae(acc, a_k[b1 + d] + v)
+        acc_opt[o] = acc
+    return acc_n
+
+
+@nb.njit(cache=True)
+def _retire_log(src, n_int, D1, r0, r1, ret_slot, ret_lv, dst, n_dst):
+    """:func:`_retire` on log values."""
+    for i in range(n_dst * D1):
+        dst[i] = _NEG_INF
+    for s in range(n_int):
+        tgt = s
+        lf = 0.0
+        for r in range(r0, r1):
+            bit = 1 << ret_slot[r]
+            if s & bit:
+                tgt ^= bit
+            else:
+                lf += ret_lv[r]
+        if lf == _NEG_INF:
+            continue
+        for d in range(D1):
+            dst[tgt * D1 + d] = _lae(dst[tgt * D1 + d], src[s * D1 + d] + lf)
+
+
+@nb.njit(cache=True)
+def _shift_log(x, n):
+    """Subtract the maximum of ``x[:n]`` (returned; ``-inf`` if every value is)."""
+    mx = _NEG_INF
+    for i in range(n):
+        mx = max(mx, x[i])
+    if mx == _NEG_INF:
+        return mx
+    for i in range(n):
+        x[i] -= mx
+    return mx
+
+
+@nb.njit(cache=True)
+def net_marginals_log(logw, valid, log_miss, lg_count):
+    """:func:`net_marginals` with every node value, weight and sum kept as a logarithm
+    (each layer shifted to a maximum of 0): nothing underflows, at the cost of an
+    exponential and a logarithm per operation.  Returns ``(beta, status, info)``."""
+    m, T = valid.shape
+    beta = np.zeros((m + 1, T))
+    D1 = lg_count.shape[0]
+    (layers, sizes, opt_ptr, opt_slot, opt_j, opt_t, ret_ptr, ret_slot, ret_side, ret_idx,
+     isolated, status, info) = _limits(valid, D1, True, MAX_LOG_COST)
+    for t in range(T):
+        if isolated[t]:
+            beta[0, t] = 1.0
+            if log_miss[t] == _NEG_INF:
+                return beta, 2, info
+    if status:
+        return beta, 1, info
+    L = layers.shape[0]
+    max_int = 0
+    for k in range(L):
+        max_int = max(max_int, sizes[k, 1])
+    opt_lw, null_lw, ret_lv, lo, rv = _layer_weights(logw, log_miss, layers, opt_ptr, opt_j,
+                                                     opt_t, ret_ptr, ret_side, ret_idx)
+    n_opt = opt_ptr[L]
+    # ---------------------------------------------------------------- forward
+    off = np.zeros(L + 2, np.int64)
+    for k in range(L):
+        off[k + 1] = off[k] + (1 << sizes[k, 0]) * D1
+    off[L + 1] = off[L] + D1
+    alpha = np.full(off[L + 1], _NEG_INF)
+    a_scale = np.zeros(L + 1)
+    local = D1 == 1                 # scales per component (see net_marginals)
+    n_max = (1 << max_int) * D1
+    a_int = np.empty(n_max)
+    alpha[0] = 0.0
+    for k in range(L):
+        s_pre = sizes[k, 0]
+        n_int = 1 << sizes[k, 1]
+        n_next = (1 << sizes[k + 1, 0]) if k + 1 < L else 1
+        a_k = alpha[off[k]:off[k + 1]]
+        a_next = alpha[off[k + 1]:off[k + 2]]
+        r0 = ret_ptr[k]
+        r1 = ret_ptr[k + 1]
+        direct = r0 == r1 and n_int == n_next
+        _pull_log(a_k, s_pre, n_int, D1, opt_ptr[k], opt_ptr[k + 1], opt_slot, opt_lw,
+                  null_lw[k], a_next if direct else a_int)
+        if not direct:
+            _retire_log(a_int, n_int, D1, r0, r1, ret_slot, ret_lv, a_next, n_next)
+        ls = _shift_log(a_next, n_next * D1)
+        if ls == _NEG_INF:
+            return beta, 2, info
+        a_scale[k + 1] = (0.0 if local and s_pre == 0 else a_scale[k]) + ls
+    gmax = _NEG_INF
+    for d in range(D1):
+        gmax = max(gmax, lg_count[d])
+    g = np.empty(D1)
+    zt = _NEG_INF
+    a_L = alpha[off[L]:off[L + 1]]
+    for d in range(D1):
+        g[d] = lg_count[d] - gmax
+        zt = _lae(zt, a_L[d] + g[d])
+    if zt == _NEG_INF:
+        return beta, 2, info
+    log_z = zt + a_scale[L]
+    log_zc = log_z
+    # ---------------------------------------------------------------- backward
+    b_next = np.full(n_max, _NEG_INF)
+    b_cur = np.full(n_max, _NEG_INF)
+    b_tmp = np.empty(n_max)
+    for d in range(D1):
+        b_next[d] = g[d]
+    b_scale = 0.0
+    acc_opt = np.full(n_opt, _NEG_INF)
+    acc_null = np.full(L, _NEG_INF)
+    acc_ret = np.full(ret_ptr[L], _NEG_INF)
+    for k in range(L - 1, -1, -1):
+        s_pre = sizes[k, 0]
+        n_pre = 1 << s_pre
+        n_int = 1 << sizes[k, 1]
+        n_next = (1 << sizes[k + 1, 0]) if k + 1 < L else 1
+        r0 = ret_ptr[k]
+        r1 = ret_ptr[k + 1]
+        if r0 == r1 and n_int == n_next:
+            b_int = b_next
+        else:
+            b_int = b_tmp
+            for s in range(n_int):
+                tgt = s
+                lf = 0.0
+                for r in range(r0, r1):
+                    bit = 1 << ret_slot[r]
+                    if s & bit:
+                        tgt ^= bit
+                    else:
+                        lf += ret_lv[r]
+                for d in range(D1):
+                    b_int[s * D1 + d] = lf + b_next[tgt * D1 + d]
+        if local and (k + 1 == L or sizes[k + 1, 0] == 0):
+            log_zc = log_z if k + 1 == L else a_scale[k + 1]
+            b_scale = 0.0
+        lfac = (0.0 if local and s_pre == 0 else a_scale[k]) + b_scale - log_zc
+        a_k = alpha[off[k]:off[k + 1]]
+        has_t = False
+        for r in range(r0, r1):
+            if ret_side[r] == 0:
+                has_t = True
+        if has_t:
+            _pull_log(a_k, s_pre, n_int, D1, opt_ptr[k], opt_ptr[k + 1], opt_slot, opt_lw,
+                      null_lw[k], a_int)
+            for r in range(r0, r1):
+                if ret_side[r] != 0:
+                    continue
+                bit = 1 << ret_slot[r]
+                acc = _NEG_INF
+                for st in range(0, n_int, 2 * bit):
+                    for i in range(st * D1, (st + bit) * D1):
+                        acc = _lae(acc, a_int[i] + b_int[i])
+                acc_ret[r] = acc + lfac
+        o0 = opt_ptr[k]
+        o1 = opt_ptr[k + 1]
+        acc_n = _back_log(a_k, b_int, s_pre, D1, o0, o1, opt_slot, opt_lw, null_lw[k], b_cur,
+                          acc_opt)
+        acc_null[k] = acc_n + null_lw[k] + lfac
+        for o in range(o0, o1):
+            acc_opt[o] += opt_lw[o] + lfac
+        ls = _shift_log(b_cur, n_pre * D1)
+        for i in range(n_pre * D1):
+            b_next[i] = b_cur[i]
+        if ls > _NEG_INF:
+            b_scale += ls
+    # ---------------------------------------------------------------- outputs
+    for o in range(n_opt):
+        beta[opt_j[o] + 1, opt_t[o]] = math.exp(acc_opt[o])
+    for k in range(L):
+        if layers[k, 0] == 0:
+            beta[0, layers[k, 1]] = math.exp(acc_null[k])
+    for r in range(ret_ptr[L]):
+        if ret_side[r] == 0:
+            beta[0, ret_idx[r]] = math.exp(acc_ret[r])
+    return beta, 0, info
 
 
 @nb.njit(cache=True)
 def net_count(valid):
-    """``(n_events, status)``: the number of feasible events of ``valid`` counted by the
-    net (a float, exact below ``2**53``; status 1 if the net is too large)."""
-    m, T = valid.shape
-    logw = np.zeros((m, T))
-    beta, n, status = net_marginals(logw, valid, np.zeros(T), np.zeros(1), False)
-    return n, status
+    """``(count, count_exp2, status, info)``: the number of feasible events of ``valid``,
+    ``count * 2**count_exp2``, counted by the net with unit weights (``count_exp2 = 0``
+    and ``count`` exact below ``2**53``); status 1 (and ``info`` as in
+    :func:`net_marginals`) when the net exceeds a limit."""
+    (layers, sizes, opt_ptr, opt_slot, opt_j, opt_t, ret_ptr, ret_slot, ret_side, ret_idx,
+     isolated, status, info) = _limits(valid, 1, False, MAX_COST)
+    if status:
+        return 0.0, 0, 1, info
+    L = layers.shape[0]
+    max_int = 0
+    for k in range(L):
+        max_int = max(max_int, sizes[k, 1])
+    cnt = np.zeros(1 << max_int)
+    cnt_int = np.empty(1 << max_int)
+    cnt[0] = 1.0
+    c_exp = 0
+    for k in range(L):
+        s_pre = sizes[k, 0]
+        n_int = 1 << sizes[k, 1]
+        n_next = (1 << sizes[k + 1, 0]) if k + 1 < L else 1
+        _count_pull(cnt, s_pre, n_int, opt_ptr[k], opt_ptr[k + 1], opt_slot, cnt_int)
+        _count_retire(cnt_int, n_int, ret_ptr[k], ret_ptr[k + 1], ret_slot, cnt, n_next)
+        c_exp += _rescale_counts(cnt, n_next)
+    return cnt[0], c_exp, 0, info
