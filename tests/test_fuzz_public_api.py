@@ -355,8 +355,6 @@ PENDING_OTHER_OWNERS = {
         "silent non-finite result (scenarios/hpda_scenario.py)",
     "hpda_true_count[truth=None]":
         "AttributeError (scenarios/hpda_scenario.py)",
-    "imm_pdaf_track_packed[issue:models.T=-1]":
-        "accepted (trackers/imm_pdaf.py)",
     "jpda_marginals[issue:10x10-all-valid]":
         "hang (association/jpda.py)",
     "log_marcum_detection_probability[snr=1e300]":
