@@ -958,6 +958,21 @@ def wald_asn():
 
 
 @example()
+def first_crossing_scan():
+    return call(np.array([0.5, 1.5, 3.0, 2.0]), 2.0)
+
+
+@example()
+def gaussian_llr_walks():
+    return call(1.0, 5, 12, rng())
+
+
+@example()
+def wald_expected_stopping_llr():
+    return call(-2.9, 2.9, 0.4)
+
+
+@example()
 def wald_gaussian_oc_asn():
     return call(-0.3, 1.0, -2.9, 2.9)
 
@@ -1303,6 +1318,51 @@ def run_intensity_tbd():
 @example()
 def markov_matrix():
     return call(3, 0.9).rejects("r=2.5", 2.5, 0.9, match="r")
+
+
+def _houles_errors(n_runs=6, n_filters=2, seed=7):
+    """Squared position errors (runs, filters, 90) of a Table 1 experiment; run 0 of
+    filter 0 loses the target from t = 30 s on."""
+    e = rng(seed).gamma(2.0, 200.0, size=(n_runs, n_filters, 90))
+    e[0, 0, 29:] = 1e6
+    return e
+
+
+@example()
+def window_mse():
+    return call(_houles_errors()[:, 0])
+
+
+@example()
+def failure_anatomy():
+    return call(_houles_errors()[:, 0], 200.0)
+
+
+@example()
+def rmse_estimate():
+    e = _houles_errors()
+    return call(e, np.any(e > 200.0**2, axis=-1), 1, window="manoeuvring")
+
+
+@example()
+def rmse_ratio():
+    e = _houles_errors()
+    return call(e, np.any(e > 200.0**2, axis=-1), 1, 0, window="total")
+
+
+@example()
+def cv_model_set():
+    return call(1.0, 2.0)
+
+
+@example()
+def ct_imm_model_set():
+    return call((0.0, 0.05, -0.05), (1.0, 2.0, 2.0), 1.0)
+
+
+@example()
+def tom_model_set():
+    return call((0.0, 10.0, -10.0), (1.0, 3.0, 3.0), 1.0, 1.0)
 
 
 @example()

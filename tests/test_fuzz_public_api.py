@@ -58,7 +58,7 @@ DATA_RECORDS = {
     # results
     "BootstrapStep", "CardinalityError", "Comparison", "FrameReport", "GOSPAResult",
     "GaussianEstimate", "HoulesRun", "HoulesTable", "IMMPDAFResult", "IMMRun", "IMMStep",
-    "IntensityTrackResult", "IntensityTrialResult", "KalmanRun", "KalmanUpdate",
+    "FailureAnatomy", "IntensityTrackResult", "IntensityTrialResult", "KalmanRun", "KalmanUpdate",
     "OSPAResult", "PDAUpdate", "RandomManoeuvre", "SceneMetrics", "SceneTrial",
     "SmcPhdFilterRun", "SmcPhdStep", "SmcPhdUpdate", "SprtAcmDiscrimination", "SprtResult",
     "SprtSummary", "TbdErrorSummary", "TbdTrackResult", "TbdTrialResult", "TrackSnapshot",
@@ -82,6 +82,19 @@ def _nan_beyond_count(res, args, kwargs) -> bool:
     est, n = res.estimates, res.n_estimates
     used = np.arange(est.shape[1])[None, :] < n[:, None]
     return bool(np.all(np.isfinite(est[used])) and np.all(np.isnan(est[~used])))
+
+
+def _onset_nan_unless_failed(res, args, kwargs) -> bool:
+    """``FailureAnatomy.onset``: a run that never failed has no onset time: NaN."""
+    return bool(np.array_equal(np.isnan(res.onset), ~res.failed))
+
+
+def _nan_when_never_crossed(res, args, kwargs) -> bool:
+    """``first_crossing_scan``: NaN exactly when the path never reaches the level."""
+    path = np.asarray(args[0] if args else kwargs["path"], float).ravel()
+    level = float(args[1] if len(args) > 1 else kwargs["level"])
+    reached = bool(np.any(np.sign(level) * path >= np.sign(level) * level))
+    return math.isnan(res) != reached
 
 
 def _nan_where_unmatched(res, args, kwargs) -> bool:
@@ -184,6 +197,10 @@ ALLOWED_NONFINITE = {
                         "unused estimate slots are NaN (n_estimates gives the count)")],
     "smc_phd_run": [("out.estimates", {"nan"}, _nan_beyond_count,
                      "unused estimate slots are NaN (n_estimates gives the count)")],
+    "first_crossing_scan": [("out", {"nan"}, _nan_when_never_crossed,
+                             "a path that never reaches the level has no crossing scan")],
+    "failure_anatomy": [("out.onset", {"nan"}, _onset_nan_unless_failed,
+                         "a run that never failed has no onset time: NaN")],
     "match_tracks": [("out[1]", {"nan"}, _nan_where_unmatched,
                       "no distance to an object without a matched track: NaN")],
     "hpda_truth": [("out.states", {"nan"}, _nan_where_not_alive,
