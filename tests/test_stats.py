@@ -190,3 +190,18 @@ def test_wilson_coverage():
 def test_bad_input(call, exc):
     with pytest.raises(exc):
         call()
+
+
+def test_bca_falls_back_to_percentile_when_the_estimate_is_outside_its_bootstrap():
+    # |mean| of zero-mean noise: noise biases every resample's |mean| upwards, so the
+    # estimate sits below nearly all replicates.  BCa would squeeze the interval onto the
+    # estimate; the percentile interval (widened to contain it) must be returned instead.
+    x = np.random.default_rng(3).normal(size=30)
+    x = x - x.mean() + 1e-3  # |mean| = 1e-3, far below the typical resampled |mean|
+    est = bootstrap_ci(lambda a: np.abs(a.mean(axis=1)), x)
+    assert est.lo == pytest.approx(est.value)
+    # the percentile upper end is near the 97.5 % point of |mean| of 30 draws, 2.24/sqrt(30)
+    assert 0.3 < est.hi < 0.6
+    assert "percentile" in est.method
+    # an unbiased statistic keeps BCa
+    assert "percentile" not in mean_ci(x).method

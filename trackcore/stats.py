@@ -196,7 +196,16 @@ def _bca(theta_hat, boot, jack, level, n, method):
         return Estimate(float(theta_hat), float(boot[0]), float(boot[0]), level, n, method)
     prop = (np.count_nonzero(boot < theta_hat)
             + 0.5 * np.count_nonzero(boot == theta_hat)) / boot.size
-    prop = min(max(prop, 1.0 / boot.size), 1.0 - 1.0 / boot.size)
+    if prop < alpha or prop > 1.0 - alpha:
+        # The estimate lies outside the central 1 - 2 alpha of its own bootstrap
+        # distribution (a statistic such as |mean| that noise biases): the bias correction
+        # of BCa is then beyond the range where its transformation argument holds and
+        # would squeeze the interval onto the estimate.  Use the percentile interval,
+        # widened to contain the estimate.
+        lo, hi = np.quantile(boot, [alpha, 1.0 - alpha])
+        return Estimate(float(theta_hat), min(float(lo), float(theta_hat)),
+                        max(float(hi), float(theta_hat)), level, n,
+                        method + " (percentile: bias beyond BCa's range)")
     z0 = ndtri(prop)
     d = jack.mean() - jack
     den = 6.0 * (np.sum(d * d) ** 1.5)
