@@ -177,7 +177,9 @@ def test_run_metrics_and_perfect_tracker():
     perfect = TrackerRun(n.copy(), est, np.zeros((K, 8), dtype=np.int64), n.copy(),
                          np.zeros(K))
     m = hpda_run_metrics(perfect, truth)
-    assert set(m) == set(HPDA_METRICS) and all(v == 0.0 for v in m.values())
+    assert set(m) == set(HPDA_METRICS)
+    assert m["coverage_straight"] == m["coverage_turn"] == 1.0
+    assert all(m[k] == 0.0 for k in HPDA_METRICS[:7])
     # one extra estimate 10 km away at every scan: a false track, OSPA and GOSPA false
     est2 = est.copy()
     for k in range(K):
@@ -186,6 +188,13 @@ def test_run_metrics_and_perfect_tracker():
     m2 = hpda_run_metrics(extra, truth)
     assert m2["abs_count_error"] == 1.0 and m2["sq_count_error"] == 1.0
     assert m2["false_tracks"] == 1.0 and m2["gospa_missed"] == 0.0
+    assert m2["coverage_turn"] == 1.0
+    # no estimate at all: nothing covered, every target missed
+    none = perfect._replace(count=0 * n, estimates=np.full_like(est, np.nan),
+                            n_estimates=0 * n)
+    m3 = hpda_run_metrics(none, truth)
+    assert m3["coverage_straight"] == m3["coverage_turn"] == 0.0
+    assert m3["gospa_missed"] == pytest.approx(np.mean(n) * 500.0 ** 2 / 2)
     assert m2["gospa_false"] == pytest.approx(500.0 ** 2 / 2)
     ospa = np.mean([500.0 / math.sqrt(nk + 1) for nk in n])
     assert m2["ospa"] == pytest.approx(ospa, rel=1e-12)
@@ -208,6 +217,10 @@ def test_count_error_intervals():
     eb = count_error_ci(b, n_true)
     assert diff.value == pytest.approx(ea.value - eb.value) and diff.hi < 0
     assert count_error_ci(a, n_true, seed=0) == ea
+    un = count_error_ci(a, n_true, versus=b[:30], paired=False)
+    assert un.value == pytest.approx(ea.value - count_error_ci(b[:30], n_true).value)
+    early = count_error_ci(b, n_true, kind="s", early=20)
+    assert early.value == pytest.approx((b.mean(axis=0) - n_true)[:20].mean())
     with pytest.raises(ValueError, match="kind"):
         count_error_ci(a, n_true, kind="rmse")
     with pytest.raises(ValueError, match="versus"):

@@ -296,7 +296,8 @@ HPDA_ALGORITHMS = ("hpda", "phd", "clustering", "clustering_literal", "hpda_sn",
 
 #: per-run metrics of :func:`hpda_run_metrics` (each a mean over the scans of one run)
 HPDA_METRICS = ("abs_count_error", "sq_count_error", "ospa", "gospa_localisation",
-                "gospa_missed", "gospa_false", "false_tracks")
+                "gospa_missed", "gospa_false", "false_tracks", "coverage_straight",
+                "coverage_turn")
 
 
 def hpda_tracker_configs(params: HpdaParameters, **overrides):
@@ -382,8 +383,9 @@ def track_delays(run, truth: HpdaTruth, radius=500.0, T=10.0):
 
 
 @nb.njit(cache=True)
-def _metrics_kernel(est, n_est, truth_xy, alive, c, p, out):
-    """Per-scan OSPA, GOSPA parts and false tracks; ``out`` (K, 5)."""
+def _metrics_kernel(est, n_est, truth_xy, alive, turning, c, p, out, cover):
+    """Per-scan OSPA, GOSPA parts and false tracks into ``out`` (K, 5); covered and
+    live target-scans in straight flight and in turns into ``cover`` (4,)."""
     K = est.shape[0]
     cp = c ** p
     for k in range(K):
@@ -403,6 +405,17 @@ def _metrics_kernel(est, n_est, truth_xy, alive, c, p, out):
                 Y[q, 0] = truth_xy[k, t, 0]
                 Y[q, 1] = truth_xy[k, t, 1]
                 q += 1
+                near = False
+                for i in range(nx):
+                    dx = X[i, 0] - truth_xy[k, t, 0]
+                    dy = X[i, 1] - truth_xy[k, t, 1]
+                    if dx * dx + dy * dy <= c * c:
+                        near = True
+                        break
+                j = 2 if turning[k, t] else 0
+                cover[j + 1] += 1.0
+                if near:
+                    cover[j] += 1.0
         dist, loc, missed, false, n_missed, n_false = gospa_kernel(X, Y, c, p, 2.0)
         mn = min(nx, ny)
         n = max(nx, ny)
@@ -429,12 +442,15 @@ def _metrics_kernel(est, n_est, truth_xy, alive, c, p, out):
 
 
 def hpda_run_metrics(run, truth: HpdaTruth, c=500.0, p=2.0):
-    """Per-run metrics of one tracker run against the truth, each a mean over scans
-    (keys :data:`HPDA_METRICS`): ``abs_count_error`` ``|N_hat - N|``,
+    """Per-run metrics of one tracker run against the truth (keys :data:`HPDA_METRICS`).
+
+    Means over the scans of the run: ``abs_count_error`` ``|N_hat - N|``,
     ``sq_count_error`` ``(N_hat - N)^2``, ``ospa`` (cut-off ``c`` [m], order ``p``, on
     positions), the three GOSPA parts (``alpha = 2``; localisation, missed, false, in
-    m^p), and ``false_tracks``, the number of estimates farther than ``c`` from every
-    live target."""
+    m^p), ``false_tracks``, the number of estimates farther than ``c`` from every live
+    target.  Fractions of live target-scans with an estimate within ``c`` of the
+    target: ``coverage_straight`` (target flying straight) and ``coverage_turn``
+    (target in its turn; NaN if the truth has no turn)."""
     c = as_positive(c, "c")
     p = as_positive(p, "p")
     if not (math.isfinite(p) and p >= 1.0):
@@ -445,11 +461,14 @@ def hpda_run_metrics(run, truth: HpdaTruth, c=500.0, p=2.0):
         raise ValueError(f"run must cover the truth's {K} scans, got {run.count.shape}")
     d = run.count - n_true
     per = np.zeros((K, 5))
+    cover = np.zeros(4)
     est = np.ascontiguousarray(run.estimates, dtype=np.float64)
     _metrics_kernel(est, np.ascontiguousarray(run.n_estimates, dtype=np.int64),
                     np.ascontiguousarray(np.nan_to_num(truth.states[:, :, :2])), truth.alive,
-                    c, p, per)
-    vals = (np.mean(np.abs(d)), np.mean(d * d), *per.mean(axis=0))
+                    truth.modes > 1, c, p, per, cover)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cov = (cover[0] / cover[1], cover[2] / cover[3] if cover[3] else np.nan)
+    vals = (np.mean(np.abs(d)), np.mean(d * d), *per.mean(axis=0), *cov)
     return dict(zip(HPDA_METRICS, (float(v) for v in vals)))
 
 
@@ -498,38 +517,52 @@ def run_hpda_trial(rng, case, algorithms=("hpda", "phd", "clustering"), keep_est
 _TRUTH_CACHE: dict = {}
 
 
-def count_error_ci(counts, n_true, *, versus=None, kind="e", seed=0) -> Estimate:
+def count_error_ci(counts, n_true, *, versus=None, paired=True, kind="e", early=None,
+                   seed=0) -> Estimate:
     """The chapter's count errors over Monte Carlo runs, with a BCa bootstrap interval.
 
     ``counts`` ``(n_runs, K)``: estimated counts per run and scan; ``n_true`` ``(K,)``.
     With ``kind="e"`` the statistic is ``e = mean_k |Nbar_k - N_k|`` and with
-    ``kind="s"`` it is ``s = mean_k (Nbar_k - N_k)``, ``Nbar_k`` the mean over runs.
-    ``versus`` (same shape, the same runs) gives the paired interval of the difference
-    ``e(counts) - e(versus)``.  The runs are resampled (together, when paired) and
-    ``Nbar`` recomputed for every resample.
+    ``kind="s"`` it is ``s = mean_k (Nbar_k - N_k)``, ``Nbar_k`` the mean over runs;
+    ``early=n`` restricts the mean over scans to the first ``n`` scans.  ``versus``
+    (another algorithm's counts) gives the interval of the difference
+    ``stat(counts) - stat(versus)``: paired (same runs, resampled together, equal
+    shapes) or, with ``paired=False``, independent samples (e.g. two environments).
+    The runs are resampled and ``Nbar`` recomputed for every resample.
     """
     if kind not in ("e", "s"):
         raise ValueError(f"kind must be 'e' or 's', got {kind!r}")
     C = as_array(counts, "counts", ndim=2)
-    N = as_array(n_true, "n_true", shape=(C.shape[1],))
-    D = [C - N]
+    K = C.shape[1]
+    N = as_array(n_true, "n_true", shape=(K,))
+    k1 = K if early is None else as_int(early, "early", minimum=1)
+    if k1 > K:
+        raise ValueError(f"early must be <= {K}, got {k1}")
+    D = [(C - N)[:, :k1]]
     if versus is not None:
-        V = as_array(versus, "versus", shape=C.shape)
-        D.append(V - N)
-    n = C.shape[0]
-    if n < 2:
-        raise ValueError(f"counts needs at least 2 runs, got {n}")
+        V = as_array(versus, "versus", ndim=2)
+        if (paired and V.shape != C.shape) or V.shape[1] != K:
+            raise ValueError(f"versus must have shape {C.shape if paired else ('n', K)}, "
+                             f"got {V.shape}")
+        D.append((V - N)[:, :k1])
+    for Dm in D:
+        if Dm.shape[0] < 2:
+            raise ValueError("counts and versus need at least 2 runs")
 
-    def one(W, Dm):
-        M = W @ Dm
-        return np.abs(M).mean(axis=1) if kind == "e" else M.mean(axis=1)
-
-    def stat(idx):
+    def one(idx, Dm):
         ii = idx.astype(np.int64)
         b, m = ii.shape
+        n = Dm.shape[0]
         flat = (ii + n * np.arange(b)[:, None]).ravel()
-        W = np.bincount(flat, minlength=b * n).reshape(b, n) / m
-        v = one(W, D[0])
-        return v - one(W, D[1]) if len(D) == 2 else v
+        M = (np.bincount(flat, minlength=b * n).reshape(b, n) / m) @ Dm
+        return np.abs(M).mean(axis=1) if kind == "e" else M.mean(axis=1)
 
-    return bootstrap_ci(stat, np.arange(n, dtype=float), seed=seed)
+    if versus is None:
+        return bootstrap_ci(lambda i: one(i, D[0]), np.arange(D[0].shape[0], dtype=float),
+                            seed=seed)
+    if paired:
+        return bootstrap_ci(lambda i: one(i, D[0]) - one(i, D[1]),
+                            np.arange(D[0].shape[0], dtype=float), seed=seed)
+    return bootstrap_ci(lambda i, j: one(i, D[0]) - one(j, D[1]),
+                        np.arange(D[0].shape[0], dtype=float),
+                        np.arange(D[1].shape[0], dtype=float), paired=False, seed=seed)
