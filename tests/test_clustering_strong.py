@@ -114,3 +114,30 @@ def test_link_rates_bad_input():
         clustering_link_rates(z, off, np.zeros(1, dtype=np.int64), np.ones((1, 1)), cfg, [1, 0])
     with pytest.raises(TypeError, match="config"):
         clustering_link_rates(z, off, np.zeros(1, dtype=np.int64), np.ones((1, 1)), {}, [0, 1])
+
+
+def test_jpda_by_component_equals_joint_enumeration():
+    from trackcore.association.jpda import _enumerate_kernel
+    from trackcore.trackers.clustering_hybrid import _jpda_by_component
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        m, T = int(rng.integers(0, 7)), int(rng.integers(1, 6))
+        valid = rng.random((m, T)) < 0.35
+        logf = np.where(valid, rng.normal(0.0, 2.0, (m, T)), -np.inf)
+        lpd, l1 = math.log(0.8), math.log(1 - 0.8 * 0.99)
+        beta, beta0 = _jpda_by_component(logf, valid, lpd, l1)
+        la, lm, lt, _ = _enumerate_kernel(logf, valid, np.full(T, lpd), np.full(T, l1),
+                                          False, 0.0)
+        np.testing.assert_allclose(beta, np.exp(la - lt), rtol=1e-10, atol=1e-14)
+        np.testing.assert_allclose(beta0, np.exp(lm - lt), rtol=1e-10, atol=1e-14)
+
+
+def test_dense_clutter_does_not_explode():
+    # many clutter tracks: the groups stay small, so a dense scene runs in bounded time
+    import time
+    p = hpda_parameters(3)
+    s = simulate_hpda_scans(hpda_truth(n_scans=40), p, np.random.default_rng(0))
+    cfg = hpda_tracker_configs(p, clustering={"n_particles": 100})["clustering"]
+    t = time.process_time()
+    out = clustering_run(s.z, s.offsets, cfg, np.random.default_rng(1))
+    assert time.process_time() - t < 20 and out.count.shape == (40,)

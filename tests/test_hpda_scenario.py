@@ -234,3 +234,22 @@ def test_trial_metrics_and_diagnostics():
     assert set(out["hpda"]["metrics"]) == set(HPDA_METRICS)
     assert out["hpda"]["diagnostics"].shape == (2, 7)
     assert "diagnostics" not in out["clustering_literal"]
+
+
+def test_metrics_and_delays_check_their_inputs():
+    from trackcore.scenarios import hpda_run_metrics, track_delays
+    from trackcore.trackers import TrackerRun
+    truth = hpda_truth(n_scans=20)
+    K = 20
+    run = TrackerRun(np.zeros(K, dtype=np.int64), np.full((K, 4, 4), np.nan),
+                     np.full((K, 4), -1), np.zeros(K, dtype=np.int64), np.zeros(K))
+    with pytest.raises(TypeError, match="run"):
+        hpda_run_metrics({"count": 1}, truth)
+    with pytest.raises(TypeError, match="truth"):
+        track_delays(run, "truth")
+    with pytest.raises(ValueError, match="scans"):
+        hpda_run_metrics(run, hpda_truth(n_scans=30))
+    with pytest.raises(ValueError, match="radius"):
+        track_delays(run, truth, radius=float("nan"))
+    conf, term = track_delays(run, truth)
+    assert np.isnan(conf[0]) and conf.shape == (6,)

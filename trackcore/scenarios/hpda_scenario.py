@@ -38,7 +38,7 @@ from ..metrics import gospa_kernel
 from ..models.motion import coordinated_turn_transition, cv_transition
 from ..stats import Estimate, bootstrap_ci
 from ..trackers.clustering_hybrid import CHI2_2_99, ClusteringConfig, clustering_run
-from ..trackers.hpda_pf import HpdaPfConfig, _finite, _integer, hpda_pf_run
+from ..trackers.hpda_pf import HpdaPfConfig, TrackerRun, _finite, _integer, hpda_pf_run
 from ..trackers.smc_phd import SmcPhdConfig, smc_phd_run
 
 __all__ = [
@@ -349,12 +349,24 @@ def _run_algorithm(key, cfg, scans, rng):
     return clustering_run(scans.z, scans.offsets, cfg, rng)
 
 
+def _check_run_truth(run, truth):
+    if not isinstance(run, TrackerRun):
+        raise TypeError(f"run must be a TrackerRun, got {type(run).__name__}")
+    if not isinstance(truth, HpdaTruth):
+        raise TypeError(f"truth must be HpdaTruth, got {type(truth).__name__}")
+    K = truth.alive.shape[0]
+    if np.shape(run.count) != (K,) or np.ndim(run.estimates) != 3 or \
+            np.shape(run.estimates)[0] != K or np.shape(run.n_estimates) != (K,):
+        raise ValueError(f"run must cover the truth's {K} scans")
+
+
 def track_delays(run, truth: HpdaTruth, radius=500.0, T=10.0):
     """Confirmation delay (scans from birth until an estimate lies within
     ``radius`` of the target; NaN if never) and termination delay (scans
     after death until no estimate lies within ``radius`` of the target's
     CV-extrapolated position, ``T`` the scan period; capped at the end of the run)
     per target."""
+    _check_run_truth(run, truth)
     radius = as_positive(radius, "radius")
     T = as_positive(T, "T")
     K, n_t = truth.alive.shape
@@ -451,14 +463,13 @@ def hpda_run_metrics(run, truth: HpdaTruth, c=500.0, p=2.0):
     target.  Fractions of live target-scans with an estimate within ``c`` of the
     target: ``coverage_straight`` (target flying straight) and ``coverage_turn``
     (target in its turn; NaN if the truth has no turn)."""
+    _check_run_truth(run, truth)
     c = as_positive(c, "c")
     p = as_positive(p, "p")
     if not (math.isfinite(p) and p >= 1.0):
         raise ValueError(f"p must be a finite number >= 1, got {p}")
     n_true = truth.alive.sum(axis=1)
     K = n_true.shape[0]
-    if run.count.shape != (K,):
-        raise ValueError(f"run must cover the truth's {K} scans, got {run.count.shape}")
     d = run.count - n_true
     per = np.zeros((K, 5))
     cover = np.zeros(4)

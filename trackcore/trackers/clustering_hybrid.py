@@ -132,6 +132,65 @@ def _link_weights(r_last, gap, two_r00, two_r11, sig_m):
 
 
 @nb.njit(cache=True)
+def _jpda_by_component(logf, valid, log_pd, log_1mpd):
+    """JPDA marginals ``(beta (m, T), beta0 (T,))`` by exact enumeration, done separately
+    for each group of tracks linked through shared gated measurements (the groups are
+    independent, so the marginals are those of the joint problem, and the work grows
+    with the largest group instead of with all tracks at once)."""
+    m, T = valid.shape
+    parent = np.arange(T)
+    for j in range(m):
+        first = -1
+        for t in range(T):
+            if not valid[j, t]:
+                continue
+            if first < 0:
+                first = t
+                continue
+            a, b = first, t
+            while parent[a] != a:
+                a = parent[a]
+            while parent[b] != b:
+                b = parent[b]
+            if a != b:
+                parent[max(a, b)] = min(a, b)
+    root = np.empty(T, dtype=np.int64)
+    for t in range(T):
+        a = t
+        while parent[a] != a:
+            a = parent[a]
+        root[t] = a
+    beta = np.zeros((m, T))
+    beta0 = np.ones(T)
+    for r in range(T):
+        if root[r] != r:
+            continue
+        tracks = np.nonzero(root == r)[0]
+        rows = np.zeros(m, dtype=np.bool_)
+        for j in range(m):
+            for t in tracks:
+                if valid[j, t]:
+                    rows[j] = True
+        meas = np.nonzero(rows)[0]
+        if meas.shape[0] == 0:
+            continue
+        sub_f = np.empty((meas.shape[0], tracks.shape[0]))
+        sub_v = np.zeros((meas.shape[0], tracks.shape[0]), dtype=np.bool_)
+        for a in range(meas.shape[0]):
+            for b in range(tracks.shape[0]):
+                sub_f[a, b] = logf[meas[a], tracks[b]]
+                sub_v[a, b] = valid[meas[a], tracks[b]]
+        nt_ = tracks.shape[0]
+        la, lm, lt, _ = _enumerate_kernel(sub_f, sub_v, np.full(nt_, log_pd),
+                                          np.full(nt_, log_1mpd), False, 0.0)
+        for b in range(nt_):
+            beta0[tracks[b]] = math.exp(lm[b] - lt)
+            for a in range(meas.shape[0]):
+                beta[meas[a], tracks[b]] = math.exp(la[a, b] - lt)
+    return beta, beta0
+
+
+@nb.njit(cache=True)
 def _cluster_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_id, out_n):
     (pd, lam_xy, T, sigma_a, a_m, pg, g2, link_d2, vstd) = (
         prm[0], prm[1], prm[2], prm[3], prm[4], prm[5], prm[6], prm[7], prm[8])
@@ -234,16 +293,13 @@ def _cluster_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_id
                     if l_tj > 0.0:
                         valid[g, q] = True
                         logf[g, q] = math.log(l_tj / (lam_xy * Z[a0 + jj, 0]))
-            log_pd = np.full(nt, math.log(pd))
-            log_1mpd = np.full(nt, math.log(1.0 - pd * pg))
-            log_acc, log_miss, log_total, nev = _enumerate_kernel(logf, valid, log_pd, log_1mpd,
-                                                                  False, 0.0)
+            beta, beta0 = _jpda_by_component(logf, valid, math.log(pd), math.log(1.0 - pd * pg))
             for q in range(nt):
                 t = tl[q]
-                b0 = math.exp(log_miss[q] - log_total)
+                b0 = beta0[q]
                 any_meas = False
                 for g in range(ng):
-                    if valid[g, q] and math.exp(log_acc[g, q] - log_total) > 1e-12:
+                    if valid[g, q] and beta[g, q] > 1e-12:
                         any_meas = True
                 if not any_meas:
                     continue
@@ -256,7 +312,7 @@ def _cluster_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_id
                     for g in range(ng):
                         if not valid[g, q]:
                             continue
-                        bj = math.exp(log_acc[g, q] - log_total)
+                        bj = beta[g, q]
                         if bj <= 1e-12:
                             continue
                         jj = ml[g]
