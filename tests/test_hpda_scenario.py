@@ -8,7 +8,7 @@ from scipy import stats
 from trackcore.scenarios import (HPDA_TABLE1, hpda_parameters, hpda_true_count, hpda_truth,
                                  simulate_hpda_scans)
 
-# spec section 5.1: death states, CV variant (A) and manoeuvring variant (B)
+# death states of the two truth readings: straight flight (A) and the one-turn reading (B)
 DEATH_A = [(0, -3000), (2500, 2500), (-3750, 2500), (500, -1000), (1750, 1750), (4000, -3000)]
 DEATH_B = [(-1712.7, -2179.0, -0.228, 1.788), (213.7, 2275.7, -0.832, -1.144),
            (-3236.1, 4619.0, 0.868, 0.704), (-1279.3, -769.9, -1.021, -0.720),
