@@ -8,7 +8,7 @@ from scipy import stats
 from trackcore.scenarios import (HPDA_TABLE1, hpda_parameters, hpda_true_count, hpda_truth,
                                  simulate_hpda_scans)
 
-# spec section 5.1: death states, CV variant (A) and manoeuvring variant (B)
+# death states of the two truth readings: straight flight (A) and the one-turn reading (B)
 DEATH_A = [(0, -3000), (2500, 2500), (-3750, 2500), (500, -1000), (1750, 1750), (4000, -3000)]
 DEATH_B = [(-1712.7, -2179.0, -0.228, 1.788), (213.7, 2275.7, -0.832, -1.144),
            (-3236.1, 4619.0, 0.868, 0.704), (-1279.3, -769.9, -1.021, -0.720),
@@ -60,7 +60,7 @@ def test_parameters():
     assert p1.tau == pytest.approx(1.159, abs=5e-4) and p2.tau == pytest.approx(3.065, abs=5e-4)
     assert p1.clutter_density_xy == pytest.approx(3.18e-8, rel=2e-3)
     with pytest.raises(ValueError, match="case"):
-        hpda_parameters(3)
+        hpda_parameters(4)
 
 
 def test_measurement_statistics():
@@ -145,3 +145,111 @@ def test_trial_scenario_overrides_change_only_amplitudes():
     # the detection pattern depends on P_D only, so the PHD (no amplitudes) is unchanged
     np.testing.assert_array_equal(a["phd"]["aux"], b["phd"]["aux"])
     assert a["n_measurements"] == b["n_measurements"]
+
+
+def test_stress_environment():
+    p3 = hpda_parameters(3)
+    assert (p3.pd, p3.snr) == (0.9, 10.0)
+    assert p3.sigma_r == 150.0 and p3.sigma_theta == pytest.approx(math.radians(3.0))
+    # one expected false return in a gate S = R, P_G = 0.99, at 5 km
+    vg = math.pi * (-2 * math.log(0.01)) * p3.sigma_r * p3.sigma_theta
+    assert p3.clutter_density_xy * 5000.0 * vg == pytest.approx(1.0, rel=1e-12)
+    assert 250 < p3.clutter_mean < 300
+
+
+def test_negative_noisy_range_is_reflected():
+    from dataclasses import replace
+    # a huge range noise makes negative draws common; they come out as positive ranges
+    p = replace(hpda_parameters(1), clutter_mean=0.0, sigma_r=3000.0)
+    s = simulate_hpda_scans(hpda_truth(n_scans=50), p, np.random.default_rng(0))
+    assert s.z[:, 0].min() > 0 and np.all(np.abs(s.z[:, 1]) <= np.pi)
+
+
+def test_run_metrics_and_perfect_tracker():
+    from trackcore.scenarios import HPDA_METRICS, hpda_run_metrics
+    from trackcore.trackers import TrackerRun
+    truth = hpda_truth()
+    K = truth.alive.shape[0]
+    n = truth.alive.sum(axis=1)
+    est = np.full((K, 8, 4), np.nan)
+    for k in range(K):
+        est[k, :n[k]] = truth.states[k, truth.alive[k]]
+    perfect = TrackerRun(n.copy(), est, np.zeros((K, 8), dtype=np.int64), n.copy(),
+                         np.zeros(K))
+    m = hpda_run_metrics(perfect, truth)
+    assert set(m) == set(HPDA_METRICS)
+    assert m["coverage_straight"] == m["coverage_turn"] == 1.0
+    assert all(m[k] == 0.0 for k in HPDA_METRICS[:7])
+    # one extra estimate 10 km away at every scan: a false track, OSPA and GOSPA false
+    est2 = est.copy()
+    for k in range(K):
+        est2[k, n[k], :2] = (1e4, 1e4)
+    extra = perfect._replace(count=n + 1, estimates=est2, n_estimates=n + 1)
+    m2 = hpda_run_metrics(extra, truth)
+    assert m2["abs_count_error"] == 1.0 and m2["sq_count_error"] == 1.0
+    assert m2["false_tracks"] == 1.0 and m2["gospa_missed"] == 0.0
+    assert m2["coverage_turn"] == 1.0
+    # no estimate at all: nothing covered, every target missed
+    none = perfect._replace(count=0 * n, estimates=np.full_like(est, np.nan),
+                            n_estimates=0 * n)
+    m3 = hpda_run_metrics(none, truth)
+    assert m3["coverage_straight"] == m3["coverage_turn"] == 0.0
+    assert m3["gospa_missed"] == pytest.approx(np.mean(n) * 500.0 ** 2 / 2)
+    assert m2["gospa_false"] == pytest.approx(500.0 ** 2 / 2)
+    ospa = np.mean([500.0 / math.sqrt(nk + 1) for nk in n])
+    assert m2["ospa"] == pytest.approx(ospa, rel=1e-12)
+    with pytest.raises(ValueError, match="p"):
+        hpda_run_metrics(perfect, truth, p=0.5)
+
+
+def test_count_error_intervals():
+    from trackcore.scenarios import count_error_ci
+    rng = np.random.default_rng(0)
+    n_true = np.repeat([1, 3, 2], 20)
+    a = n_true + rng.choice([-1, 0, 0, 0, 1], size=(50, 60))
+    b = n_true - (rng.random((50, 60)) < 0.4)
+    ea = count_error_ci(a, n_true)
+    d = a.mean(axis=0) - n_true
+    assert ea.value == pytest.approx(np.abs(d).mean()) and ea.lo <= ea.value <= ea.hi
+    sb = count_error_ci(b, n_true, kind="s")
+    assert sb.value == pytest.approx((b.mean(axis=0) - n_true).mean()) and sb.hi < 0
+    diff = count_error_ci(a, n_true, versus=b)
+    eb = count_error_ci(b, n_true)
+    assert diff.value == pytest.approx(ea.value - eb.value) and diff.hi < 0
+    assert count_error_ci(a, n_true, seed=0) == ea
+    un = count_error_ci(a, n_true, versus=b[:30], paired=False)
+    assert un.value == pytest.approx(ea.value - count_error_ci(b[:30], n_true).value)
+    early = count_error_ci(b, n_true, kind="s", early=20)
+    assert early.value == pytest.approx((b.mean(axis=0) - n_true)[:20].mean())
+    with pytest.raises(ValueError, match="kind"):
+        count_error_ci(a, n_true, kind="rmse")
+    with pytest.raises(ValueError, match="versus"):
+        count_error_ci(a, n_true, versus=b[:10])
+
+
+def test_trial_metrics_and_diagnostics():
+    from trackcore.scenarios import HPDA_METRICS, run_hpda_trial
+    out = run_hpda_trial(np.random.default_rng(1), 1, ("hpda", "clustering_literal"),
+                         overrides={"hpda": {"n_particles": 100}}, metrics=True)
+    assert set(out["hpda"]["metrics"]) == set(HPDA_METRICS)
+    assert out["hpda"]["diagnostics"].shape == (2, 7)
+    assert "diagnostics" not in out["clustering_literal"]
+
+
+def test_metrics_and_delays_check_their_inputs():
+    from trackcore.scenarios import hpda_run_metrics, track_delays
+    from trackcore.trackers import TrackerRun
+    truth = hpda_truth(n_scans=20)
+    K = 20
+    run = TrackerRun(np.zeros(K, dtype=np.int64), np.full((K, 4, 4), np.nan),
+                     np.full((K, 4), -1), np.zeros(K, dtype=np.int64), np.zeros(K))
+    with pytest.raises(TypeError, match="run"):
+        hpda_run_metrics({"count": 1}, truth)
+    with pytest.raises(TypeError, match="truth"):
+        track_delays(run, "truth")
+    with pytest.raises(ValueError, match="scans"):
+        hpda_run_metrics(run, hpda_truth(n_scans=30))
+    with pytest.raises(ValueError, match="radius"):
+        track_delays(run, truth, radius=float("nan"))
+    conf, term = track_delays(run, truth)
+    assert np.isnan(conf[0]) and conf.shape == (6,)

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from trackcore.scenarios import hpda_parameters, hpda_true_count, hpda_truth, simulate_hpda_scans
-from trackcore.trackers import HpdaPfConfig, hpda_pf_run, jump_markov_propagate_kernel
+from trackcore.trackers import HpdaPfConfig, hpda_pf_run
+from trackcore.trackers.hpda_pf import jump_markov_propagate_kernel
 
 
 def _short(case=1, K=60, seed=0, clutter=None):
@@ -101,20 +102,20 @@ def test_hpda_bad_input():
     with pytest.raises(TypeError, match="config"):
         hpda_pf_run(np.array([[5000.0, 0.1]]), np.array([2.0]), off, {}, np.random.default_rng())
     from dataclasses import replace
-    with pytest.raises(ValueError, match="config.pd"):
-        hpda_pf_run(np.array([[5000.0, 0.1]]), np.array([2.0]), off, replace(cfg, pd=1.0),
-                    np.random.default_rng())
+    with pytest.raises(ValueError, match="pd"):
+        replace(cfg, pd=1.0)
     with pytest.raises(ValueError, match="selection"):
-        hpda_pf_run(np.array([[5000.0, 0.1]]), np.array([2.0]), off, replace(cfg, selection="x"),
-                    np.random.default_rng())
+        replace(cfg, selection="x")
     with pytest.raises(ValueError, match="mode_tpm"):
-        hpda_pf_run(np.array([[5000.0, 0.1]]), np.array([2.0]), off,
-                    replace(cfg, mode_tpm=((1, 1, 0), (0, 1, 0), (0, 0, 1))), np.random.default_rng())
+        replace(cfg, mode_tpm=((1, 1, 0), (0, 1, 0), (0, 0, 1)))
+    with pytest.raises(ValueError, match="range"):
+        hpda_pf_run(np.array([[-5.0, 0.1]]), np.array([2.0]), off, cfg, np.random.default_rng())
 
 
 # ---------------------------------------------------------------- SMC-PHD
 from trackcore.trackers import (ClusteringConfig, SmcPhdConfig, clustering_run,  # noqa: E402
-                                kmeans_extract_kernel, smc_phd_run)
+                                smc_phd_run)
+from trackcore.trackers.smc_phd import kmeans_extract_kernel  # noqa: E402
 
 
 def test_phd_mass_tracks_single_target():
@@ -124,10 +125,13 @@ def test_phd_mass_tracks_single_target():
     out = smc_phd_run(s.z, s.offsets, cfg, np.random.default_rng(2))
     # after the first few scans the mass is close to one target
     assert abs(out.aux[20:].mean() - 1.0) < 0.35
-    assert np.mean(out.count[20:] == 1) > 0.7
-    k = 59
-    if out.count[k] == 1:
-        assert np.hypot(*(out.estimates[k, 0, :2] - truth.states[k, 0, :2])) < 200
+    ones = 20 + np.nonzero(out.count[20:] == 1)[0]
+    assert ones.size > 0.7 * 40
+    # every scan that reports one target reports it near the truth (never vacuous:
+    # at least 28 such scans are checked)
+    err = np.hypot(*(out.estimates[ones, 0, :2] - truth.states[ones, 0, :2]).T)
+    assert out.n_estimates[ones].min() == 1
+    assert np.all(err < 200), err.max()
 
 
 def test_phd_empty_and_deterministic():
@@ -199,11 +203,9 @@ def test_clustering_empty_and_bad_input():
         clustering_run(np.zeros((0, 2)), np.zeros(2, dtype=np.int64), {}, np.random.default_rng())
     from dataclasses import replace
     with pytest.raises(ValueError, match="eps_w"):
-        clustering_run(np.zeros((0, 2)), np.zeros(2, dtype=np.int64), replace(cfg, eps_w=0.0),
-                       np.random.default_rng())
+        replace(cfg, eps_w=0.0)
     with pytest.raises(ValueError, match="eta"):
-        clustering_run(np.zeros((0, 2)), np.zeros(2, dtype=np.int64), replace(cfg, eta=0),
-                       np.random.default_rng())
+        replace(cfg, eta=0)
 
 
 def test_clustering_roi_window_spans_eta_plus_one_scans():

@@ -8,7 +8,7 @@ is Poisson with mean ``clutter_mean = lambda V_G``; the target falls in the
 gate with probability ``P_G``.  With ``m`` validated measurements ranked by
 amplitude (``l = 1`` strongest) the probability that the target is the
 ``l``-th strongest, given that it was detected and there are ``m - 1`` clutter
-returns, is (spec section 3.1)
+returns, is (the chapter's order-statistics page derives it)
 
     q(l, m) = c C(m-1, l-1) B(l-1+c, m-l+1)
             = c Gamma(m) Gamma(l-1+c) / (Gamma(l) Gamma(m+c)),
@@ -25,7 +25,7 @@ Everything is evaluated with log-gamma (E12: the printed alternating sum for
 ``Pbar_A`` cancels catastrophically; :func:`pa_bar_alternating` keeps the
 printed form so the book can show it failing).
 
-Densities (spec section 4.1, explicit here): at the *track* level (14), (19)
+Densities (made explicit here; the paper leaves them implicit): at the *track* level (14), (19)
 the target density is ``f_T(z) = N(z; z_hat, S) / P_G`` (gate-truncated) and
 clutter is ``1 / V_G``; at the *particle* level (13) the target density is
 ``N(z; h(x_i), R)``.  ``clutter_density`` (lambda) is in the units of the
@@ -49,8 +49,6 @@ __all__ = [
     "hpda_measurement_count_probability",
     "hpda_conditional_rank_probabilities",
     "hpda_rank_probabilities_printed",
-    "hpda_rank_probabilities_kernel",
-    "hpda_conditional_rank_kernel",
     "rank_probability_q",
     "pa_bar",
     "pa_bar_alternating",
@@ -58,13 +56,10 @@ __all__ = [
     "hpda_betas",
     "hpda_select",
     "hpda_mixture_loglik",
-    "hpda_mixture_loglik_kernel",
     "existence_predict",
     "hpda_existence_delta",
-    "hpda_existence_delta_kernel",
     "existence_update",
     "simulate_hpda_ranks",
-    "rank_log_q_kernel",
     "simulate_existence_posterior",
 ]
 
@@ -147,6 +142,8 @@ def hpda_conditional_rank_kernel(m, c, pdpg, clutter_mean, pt, pf):
 
         P(M_T^l | m) = pdpg m q_l / [(1 - pdpg) clutter_mean + pdpg m].
 
+    ``q_1`` comes from log-gamma functions and ``q_{l+1} = q_l (l - 1 + c) / l``
+    (the ratio of the Beta forms), so a call costs three log-gamma evaluations.
     Returns False when ``P(m) = 0`` (impossible scan: ``m >= 1`` with no
     clutter and no detection possible, or ``m >= 2`` without clutter).
     """
@@ -157,10 +154,11 @@ def hpda_conditional_rank_kernel(m, c, pdpg, clutter_mean, pt, pf):
     den = (1.0 - pdpg) * clutter_mean + pdpg * m
     if den <= 0.0:
         return False
+    q = math.exp(_log_q(1.0, float(m), c))
     for l in range(1, m + 1):
-        q = math.exp(_log_q(l, m, c))
         pt[l - 1] = pdpg * m * q / den
         pf[l - 1] = ((1.0 - pdpg) * clutter_mean + pdpg * m * (1.0 - q)) / den
+        q *= (l - 1.0 + c) / l
     return True
 
 
@@ -371,8 +369,9 @@ def hpda_betas(target_density, p_target, p_false, gate_volume):
     vg = as_positive(gate_volume, "gate_volume")
     if m and (f.min() < 0):
         raise ValueError("target_density must be >= 0")
-    if m and (pt.min() < 0 or pf.min() < 0):
-        raise ValueError("p_target and p_false must be >= 0")
+    for arr, name in ((pt, "p_target"), (pf, "p_false")):
+        if m and (arr.min() < 0 or arr.max() > 1):
+            raise ValueError(f"{name} must hold probabilities in [0, 1]")
     num = f * pt
     den = num + pf / vg
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -405,6 +404,9 @@ def hpda_mixture_loglik(particles, z, R, p_target, p_false, gate_volume, sensor=
         raise ValueError(f"particles must have at least 2 columns, got {X.shape}")
     z = as_array(z, "z", shape=(2,))
     R = as_array(R, "R", shape=(2, 2))
+    if R[0, 1] != R[1, 0]:
+        raise ValueError(f"R must be symmetric, got R[0, 1] = {R[0, 1]} and "
+                         f"R[1, 0] = {R[1, 0]}")
     pt = as_probability(p_target, "p_target")
     pf = as_probability(p_false, "p_false")
     vg = as_positive(gate_volume, "gate_volume")
@@ -414,7 +416,7 @@ def hpda_mixture_loglik(particles, z, R, p_target, p_false, gate_volume, sensor=
         raise ValueError("R must be positive definite") from None
     Rinv = np.ascontiguousarray(np.linalg.inv(R))
     logdet = float(2.0 * np.sum(np.log(np.diag(L))))
-    s = np.asarray(sensor, dtype=np.float64)
+    s = as_array(sensor, "sensor", shape=(2,))
     lpt = math.log(pt) if pt > 0 else -np.inf
     lpf = math.log(pf / vg) if pf > 0 else -np.inf
     out = np.empty(X.shape[0])

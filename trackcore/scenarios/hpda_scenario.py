@@ -1,11 +1,11 @@
-"""The six-target scenario of Kim & Song (2007), Table 1, with its sensor.
+"""The six-target scenario of Kim & Song (2007), Table 1, with its sensor, the
+chapter's trackers and the per-run metrics of its Monte Carlo study.
 
-Truth (spec section 5.1, conventions are choices): the state in Table 1 is the
-state *at the birth scan*; a target is alive for ``b <= k <= d``; scans run
-``k = 0..450`` at ``T = 10 s``.  Motion follows the three-mode jump-Markov
-model of eqs (1)-(2): mode 1 CV, mode 2 a left (counter-clockwise)
-coordinated turn, mode 3 a right turn, with turn rate ``Omega = +-a_m/speed``
-(erratum E2: speed, not range).
+Truth (conventions are the book's choices): the state in Table 1 is the state *at
+the birth scan*; a target is alive for ``b <= k <= d``; scans run ``k = 0..450`` at
+``T = 10 s``.  Motion follows the three-mode jump-Markov model of eqs (1)-(2): mode 1
+CV, mode 2 a left (counter-clockwise) coordinated turn, mode 3 a right turn, with
+turn rate ``Omega = +-a_m/speed`` (erratum E2: speed, not range).
 
 * ``variant="A"``: pure CV, noise-free.
 * ``variant="B"`` (default, the book's truth): noise-free; each target flies
@@ -17,20 +17,28 @@ Sensor: range-bearing at the origin, ``sigma_r = 50 m``,
 targets, 1 for clutter) with threshold ``tau = -(1 + rho) ln P_D`` (E18).
 Clutter: ``Poisson(lambda V)`` returns per scan, uniform over the disc of
 radius 10 km, amplitude ``tau + Exp(1)``.
+
+Environments: the paper's two, ``hpda_parameters(1)`` ``(P_D, rho, lambda V) =
+(0.9, 10, 10)`` and ``hpda_parameters(2)`` ``(0.6, 5, 50)``, and the book's stress
+environment ``hpda_parameters(3)`` (see :func:`hpda_stress_clutter_mean`).
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import NamedTuple
 
+import numba as nb
 import numpy as np
 
-from ..core.validation import as_count, as_int, as_nonnegative, as_positive, as_probability, as_rng
+from ..core.validation import (as_array, as_count, as_int, as_nonnegative, as_positive,
+                               as_probability, as_rng)
 from ..detection.amplitude import exponential_amplitude_threshold
+from ..metrics import gospa_kernel
 from ..models.motion import coordinated_turn_transition, cv_transition
-from ..trackers.clustering_hybrid import ClusteringConfig, clustering_run
-from ..trackers.hpda_pf import HpdaPfConfig, hpda_pf_run
+from ..stats import Estimate, bootstrap_ci
+from ..trackers.clustering_hybrid import CHI2_2_99, ClusteringConfig, clustering_run
+from ..trackers.hpda_pf import HpdaPfConfig, TrackerRun, _finite, _integer, hpda_pf_run
 from ..trackers.smc_phd import SmcPhdConfig, smc_phd_run
 
 __all__ = [
@@ -39,13 +47,17 @@ __all__ = [
     "HpdaTruth",
     "HpdaScans",
     "hpda_parameters",
+    "hpda_stress_clutter_mean",
     "hpda_truth",
     "hpda_true_count",
     "simulate_hpda_scans",
     "hpda_tracker_configs",
     "run_hpda_trial",
     "HPDA_ALGORITHMS",
+    "HPDA_METRICS",
     "track_delays",
+    "hpda_run_metrics",
+    "count_error_ci",
 ]
 
 #: Table 1: (TID, birth scan, death scan, [x, y, vx, vy] at birth)
@@ -61,17 +73,38 @@ HPDA_TABLE1 = (
 
 @dataclass(frozen=True)
 class HpdaParameters:
-    """Scenario and sensor parameters of one environment (Table 2, reconstructed)."""
-    pd: float                 # detection probability
-    snr: float                # linear mean SNR rho
-    clutter_mean: float       # lambda V: expected clutter returns per scan in the disc
-    T: float = 10.0           # scan period [s]
-    n_scans: int = 451        # scans k = 0..450
-    radius: float = 1.0e4     # surveillance disc radius [m]
-    sigma_r: float = 50.0     # range noise std [m]
-    sigma_theta: float = math.radians(0.1)  # bearing noise std [rad]
-    sigma_a: float = 0.0015   # process-noise acceleration std [m/s^2]
-    a_m: float = 0.01         # manoeuvre acceleration [m/s^2]
+    """Scenario and sensor parameters of one environment (Table 2, reconstructed).
+
+    ``pd`` detection probability (in (0, 1)), ``snr`` linear mean SNR rho (>= 0),
+    ``clutter_mean`` lambda V, the expected clutter returns per scan in the disc
+    (>= 0), ``T`` scan period [s], ``n_scans`` (scans ``k = 0 .. n_scans - 1``),
+    ``radius`` of the surveillance disc [m], ``sigma_r`` range noise std [m],
+    ``sigma_theta`` bearing noise std [rad], ``sigma_a`` process-noise acceleration
+    std [m/s^2], ``a_m`` manoeuvre acceleration [m/s^2].  Every field is checked
+    when the record is built.
+    """
+    pd: float
+    snr: float
+    clutter_mean: float
+    T: float = 10.0
+    n_scans: int = 451
+    radius: float = 1.0e4
+    sigma_r: float = 50.0
+    sigma_theta: float = math.radians(0.1)
+    sigma_a: float = 0.0015
+    a_m: float = 0.01
+
+    def __post_init__(self):
+        _finite(self, "pd", low=0.0, high=1.0, low_open=True, high_open=True)
+        _finite(self, "snr", low=0.0)
+        _finite(self, "clutter_mean", low=0.0)
+        _finite(self, "T", low=0.0, low_open=True)
+        _integer(self, "n_scans", 1)
+        _finite(self, "radius", low=0.0, low_open=True)
+        _finite(self, "sigma_r", low=0.0, low_open=True)
+        _finite(self, "sigma_theta", low=0.0, high=math.pi, low_open=True)
+        _finite(self, "sigma_a", low=0.0)
+        _finite(self, "a_m", low=0.0)
 
     @property
     def tau(self) -> float:
@@ -97,14 +130,50 @@ class HpdaParameters:
         return np.diag([self.sigma_r ** 2, self.sigma_theta ** 2])
 
 
+#: the stress environment's sensor: three times the paper's range noise, thirty times
+#: its bearing noise
+STRESS_SIGMA_R = 150.0
+STRESS_SIGMA_THETA = math.radians(3.0)
+
+
+def hpda_stress_clutter_mean(lambda_vg=1.0, *, reference_range=5000.0, sigma_r=STRESS_SIGMA_R,
+                             sigma_theta=STRESS_SIGMA_THETA, radius=1.0e4,
+                             gate_probability=0.99):
+    """Clutter per scan ``lambda V`` that puts ``lambda_vg`` expected false returns in a
+    gate at ``reference_range``.
+
+    The gate is taken at its floor, ``S = R`` (a track's predicted spread only widens
+    it): ``V_G = pi g^2 sigma_r sigma_theta`` in (m rad), ``g^2`` the 2-dof chi-square
+    point of ``gate_probability``.  Clutter uniform over the disc of radius ``radius``
+    has polar density ``lambda_z = lambda V r / (pi radius^2)``, so
+    ``lambda V = lambda_vg radius^2 / (r g^2 sigma_r sigma_theta)``.
+    """
+    lv = as_positive(lambda_vg, "lambda_vg")
+    r = as_positive(reference_range, "reference_range")
+    sr = as_positive(sigma_r, "sigma_r")
+    st = as_positive(sigma_theta, "sigma_theta")
+    rad = as_positive(radius, "radius")
+    pg = as_probability(gate_probability, "gate_probability", open_low=True, open_high=True)
+    g2 = -2.0 * math.log(1.0 - pg)
+    return lv * rad * rad / (r * g2 * sr * st)
+
+
 def hpda_parameters(case: int) -> HpdaParameters:
-    """Case 1: ``(P_D, rho, lambda V) = (0.9, 10, 10)``; case 2: ``(0.6, 5, 50)``."""
+    """Case 1: ``(P_D, rho, lambda V) = (0.9, 10, 10)``; case 2: ``(0.6, 5, 50)``
+    (the paper's two environments).  Case 3 (the book's stress environment, not in the
+    paper): case 1's detection ``(P_D, rho) = (0.9, 10)`` with a coarse sensor
+    (``sigma_r = 150`` m, ``sigma_theta = 3`` deg) and the clutter of
+    :func:`hpda_stress_clutter_mean` (one false return expected in a gate at 5 km,
+    about 276 per scan)."""
     case = as_int(case, "case")
     if case == 1:
         return HpdaParameters(pd=0.9, snr=10.0, clutter_mean=10.0)
     if case == 2:
         return HpdaParameters(pd=0.6, snr=5.0, clutter_mean=50.0)
-    raise ValueError(f"case must be 1 or 2, got {case}")
+    if case == 3:
+        return HpdaParameters(pd=0.9, snr=10.0, clutter_mean=hpda_stress_clutter_mean(),
+                              sigma_r=STRESS_SIGMA_R, sigma_theta=STRESS_SIGMA_THETA)
+    raise ValueError(f"case must be 1, 2 or 3, got {case}")
 
 
 class HpdaTruth(NamedTuple):
@@ -197,6 +266,11 @@ def simulate_hpda_scans(truth: HpdaTruth, params: HpdaParameters, rng) -> HpdaSc
     X = truth.states[kk, tt]
     r = np.hypot(X[:, 0], X[:, 1]) + params.sigma_r * rng.standard_normal(kk.size)
     th = np.arctan2(X[:, 1], X[:, 0]) + params.sigma_theta * rng.standard_normal(kk.size)
+    # a noisy range below zero (a target passing close to the sensor) is the point
+    # at range |r| on the opposite bearing
+    neg = r < 0
+    r[neg] = -r[neg]
+    th[neg] += np.pi
     th = np.mod(th + np.pi, 2 * np.pi) - np.pi
     # clutter: Poisson(lambda V) per scan, uniform in the disc
     nc = rng.poisson(params.clutter_mean, K)
@@ -218,35 +292,51 @@ def simulate_hpda_scans(truth: HpdaTruth, params: HpdaParameters, rng) -> HpdaSc
 
 
 #: algorithm keys of :func:`run_hpda_trial`
-HPDA_ALGORITHMS = ("hpda", "phd", "clustering", "clustering_wide", "hpda_sn", "hpda_nn")
+HPDA_ALGORITHMS = ("hpda", "phd", "clustering", "clustering_literal", "hpda_sn", "hpda_nn")
+
+#: per-run metrics of :func:`hpda_run_metrics` (each a mean over the scans of one run)
+HPDA_METRICS = ("abs_count_error", "sq_count_error", "ospa", "gospa_localisation",
+                "gospa_missed", "gospa_false", "false_tracks", "coverage_straight",
+                "coverage_turn")
 
 
 def hpda_tracker_configs(params: HpdaParameters, **overrides):
     """Tracker configurations for one environment: a dict with keys of
-    :data:`HPDA_ALGORITHMS` (``clustering_wide`` is the sensitivity variant
-    with ROI links on ``d^2 <= 9.21``; ``hpda_sn``/``hpda_nn`` use the
-    strongest/nearest-neighbour rule instead of eq 15).  ``overrides`` maps
-    an algorithm key to a dict of field overrides."""
+    :data:`HPDA_ALGORITHMS`.
+
+    * ``hpda``: HPDA-PF with eq (15); ``hpda_sn``/``hpda_nn``: the same tracker with
+      the strongest- or nearest-neighbour rule in place of eq (15);
+    * ``phd``: the SMC-PHD filter;
+    * ``clustering``: the clustering hybrid as its authors would tune it -- ROI links
+      with one scan of motion from the tracker's own velocity prior, the 99 % chi-square
+      gate (``d^2 <= 9.21``), chains seeded from every scan of the window, a track's
+      own gated measurement counted as support;
+    * ``clustering_literal``: the printed reading (``d <= eps_w = 1``, no motion term,
+      chains seeded at ``k - eta`` only, support from ROIs only).
+
+    ``overrides`` maps an algorithm key to a dict of field overrides."""
     if not isinstance(params, HpdaParameters):
         raise TypeError(f"params must be HpdaParameters, got {type(params).__name__}")
     common = dict(T=params.T, sigma_r=params.sigma_r, sigma_theta=params.sigma_theta,
                   sigma_a=params.sigma_a, a_m=params.a_m)
     lam = params.clutter_density_xy
+    hpda = HpdaPfConfig(pd=params.pd, snr=params.snr, clutter_density_xy=lam, **common)
+    literal = ClusteringConfig(pd=params.pd, clutter_density_xy=lam, **common)
     cfgs = {
-        "hpda": HpdaPfConfig(pd=params.pd, snr=params.snr, clutter_density_xy=lam, **common),
+        "hpda": hpda,
         "phd": SmcPhdConfig(pd=params.pd, clutter_density_xy=lam, **common),
-        "clustering": ClusteringConfig(pd=params.pd, clutter_density_xy=lam, **common),
-        "clustering_wide": ClusteringConfig(pd=params.pd, clutter_density_xy=lam, link_d2=9.21,
-                                            **common),
-        "hpda_sn": HpdaPfConfig(pd=params.pd, snr=params.snr, clutter_density_xy=lam,
-                                selection="strongest", **common),
-        "hpda_nn": HpdaPfConfig(pd=params.pd, snr=params.snr, clutter_density_xy=lam,
-                                selection="nearest", **common),
+        "clustering": replace(literal, link_d2=CHI2_2_99,
+                              link_motion_std=literal.velocity_std, seed_every_scan=True,
+                              gated_support=True),
+        "clustering_literal": literal,
+        "hpda_sn": replace(hpda, selection="strongest"),
+        "hpda_nn": replace(hpda, selection="nearest"),
     }
-    from dataclasses import replace
     for key, ov in overrides.items():
         if key not in cfgs:
             raise ValueError(f"unknown algorithm {key!r}; expected one of {HPDA_ALGORITHMS}")
+        if not isinstance(ov, dict):
+            raise TypeError(f"overrides[{key!r}] must be a dict of field values")
         cfgs[key] = replace(cfgs[key], **ov)
     return cfgs
 
@@ -259,11 +349,26 @@ def _run_algorithm(key, cfg, scans, rng):
     return clustering_run(scans.z, scans.offsets, cfg, rng)
 
 
-def track_delays(run, truth: HpdaTruth, radius=500.0):
+def _check_run_truth(run, truth):
+    if not isinstance(run, TrackerRun):
+        raise TypeError(f"run must be a TrackerRun, got {type(run).__name__}")
+    if not isinstance(truth, HpdaTruth):
+        raise TypeError(f"truth must be HpdaTruth, got {type(truth).__name__}")
+    K = truth.alive.shape[0]
+    if np.shape(run.count) != (K,) or np.ndim(run.estimates) != 3 or \
+            np.shape(run.estimates)[0] != K or np.shape(run.n_estimates) != (K,):
+        raise ValueError(f"run must cover the truth's {K} scans")
+
+
+def track_delays(run, truth: HpdaTruth, radius=500.0, T=10.0):
     """Confirmation delay (scans from birth until an estimate lies within
     ``radius`` of the target; NaN if never) and termination delay (scans
     after death until no estimate lies within ``radius`` of the target's
-    CV-extrapolated position; capped at the end of the run) per target."""
+    CV-extrapolated position, ``T`` the scan period; capped at the end of the run)
+    per target."""
+    _check_run_truth(run, truth)
+    radius = as_positive(radius, "radius")
+    T = as_positive(T, "T")
     K, n_t = truth.alive.shape
     conf = np.full(n_t, np.nan)
     term = np.full(n_t, np.nan)
@@ -271,14 +376,15 @@ def track_delays(run, truth: HpdaTruth, radius=500.0):
         b, d = int(truth.births[t]), int(truth.deaths[t])
         for k in range(b, min(d, K - 1) + 1):
             n = run.n_estimates[k]
-            if n and np.min(np.hypot(*(run.estimates[k, :n, :2] - truth.states[k, t, :2]).T)) < radius:
+            if n and np.min(np.hypot(*(run.estimates[k, :n, :2]
+                                       - truth.states[k, t, :2]).T)) < radius:
                 conf[t] = k - b
                 break
         if d >= K - 1:
             continue
         xd = truth.states[d, t]
         for k in range(d + 1, K):
-            pos = xd[:2] + (k - d) * 10.0 * xd[2:]
+            pos = xd[:2] + (k - d) * T * xd[2:]
             n = run.n_estimates[k]
             if not n or np.min(np.hypot(*(run.estimates[k, :n, :2] - pos).T)) >= radius:
                 term[t] = k - d
@@ -288,35 +394,131 @@ def track_delays(run, truth: HpdaTruth, radius=500.0):
     return conf, term
 
 
+@nb.njit(cache=True)
+def _metrics_kernel(est, n_est, truth_xy, alive, turning, c, p, out, cover):
+    """Per-scan OSPA, GOSPA parts and false tracks into ``out`` (K, 5); covered and
+    live target-scans in straight flight and in turns into ``cover`` (4,)."""
+    K = est.shape[0]
+    cp = c ** p
+    for k in range(K):
+        nx = n_est[k]
+        X = np.empty((nx, 2))
+        for i in range(nx):
+            X[i, 0] = est[k, i, 0]
+            X[i, 1] = est[k, i, 1]
+        ny = 0
+        for t in range(alive.shape[1]):
+            if alive[k, t]:
+                ny += 1
+        Y = np.empty((ny, 2))
+        q = 0
+        for t in range(alive.shape[1]):
+            if alive[k, t]:
+                Y[q, 0] = truth_xy[k, t, 0]
+                Y[q, 1] = truth_xy[k, t, 1]
+                q += 1
+                near = False
+                for i in range(nx):
+                    dx = X[i, 0] - truth_xy[k, t, 0]
+                    dy = X[i, 1] - truth_xy[k, t, 1]
+                    if dx * dx + dy * dy <= c * c:
+                        near = True
+                        break
+                j = 2 if turning[k, t] else 0
+                cover[j + 1] += 1.0
+                if near:
+                    cover[j] += 1.0
+        dist, loc, missed, false, n_missed, n_false = gospa_kernel(X, Y, c, p, 2.0)
+        mn = min(nx, ny)
+        n = max(nx, ny)
+        n_cut = mn - (ny - n_missed)
+        if n > 0:
+            out[k, 0] = ((loc + n_cut * cp + cp * (n - mn)) / n) ** (1.0 / p)
+        else:
+            out[k, 0] = 0.0
+        out[k, 1] = loc
+        out[k, 2] = missed
+        out[k, 3] = false
+        nf = 0
+        for i in range(nx):
+            far = True
+            for j in range(ny):
+                dx = X[i, 0] - Y[j, 0]
+                dy = X[i, 1] - Y[j, 1]
+                if dx * dx + dy * dy <= c * c:
+                    far = False
+                    break
+            if far:
+                nf += 1
+        out[k, 4] = nf
+
+
+def hpda_run_metrics(run, truth: HpdaTruth, c=500.0, p=2.0):
+    """Per-run metrics of one tracker run against the truth (keys :data:`HPDA_METRICS`).
+
+    Means over the scans of the run: ``abs_count_error`` ``|N_hat - N|``,
+    ``sq_count_error`` ``(N_hat - N)^2``, ``ospa`` (cut-off ``c`` [m], order ``p``, on
+    positions), the three GOSPA parts (``alpha = 2``; localisation, missed, false, in
+    m^p), ``false_tracks``, the number of estimates farther than ``c`` from every live
+    target.  Fractions of live target-scans with an estimate within ``c`` of the
+    target: ``coverage_straight`` (target flying straight) and ``coverage_turn``
+    (target in its turn; NaN if the truth has no turn)."""
+    _check_run_truth(run, truth)
+    c = as_positive(c, "c")
+    p = as_positive(p, "p")
+    if not (math.isfinite(p) and p >= 1.0):
+        raise ValueError(f"p must be a finite number >= 1, got {p}")
+    n_true = truth.alive.sum(axis=1)
+    K = n_true.shape[0]
+    d = run.count - n_true
+    per = np.zeros((K, 5))
+    cover = np.zeros(4)
+    est = np.ascontiguousarray(run.estimates, dtype=np.float64)
+    _metrics_kernel(est, np.ascontiguousarray(run.n_estimates, dtype=np.int64),
+                    np.ascontiguousarray(np.nan_to_num(truth.states[:, :, :2])), truth.alive,
+                    truth.modes > 1, c, p, per, cover)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cov = (cover[0] / cover[1], cover[2] / cover[3] if cover[3] else np.nan)
+    vals = (np.mean(np.abs(d)), np.mean(d * d), *per.mean(axis=0), *cov)
+    return dict(zip(HPDA_METRICS, (float(v) for v in vals)))
+
+
 def run_hpda_trial(rng, case, algorithms=("hpda", "phd", "clustering"), keep_estimates=False,
-                   overrides=None, scenario_overrides=None):
+                   overrides=None, scenario_overrides=None, metrics=False):
     """One Monte Carlo run of the paper's experiment: simulate the scans of
     environment ``case`` (variant-B truth) and run every tracker in
     ``algorithms`` on them.  ``overrides`` maps algorithm keys to config
     field overrides; ``scenario_overrides`` replaces fields of the
     environment's :class:`HpdaParameters` (e.g. ``{"snr": 3.16}``) for both
     the simulation and the trackers.  Random streams:
-    ``rng.spawn(1 + len(algorithms))`` (data first).  Returns a dict
-    ``{key: {"count", "aux", "conf_delay", "term_delay", ["run"]}}`` plus
-    ``"n_measurements"``."""
+    ``rng.spawn(1 + len(algorithms))`` (data first), so a tracker sees the same
+    scans and the same particle stream whatever runs beside it.  Returns a dict
+    ``{key: {"count", "aux", "conf_delay", "term_delay", ["metrics"],
+    ["diagnostics"], ["run"]}}`` plus ``"n_measurements"``; ``metrics=True`` adds
+    :func:`hpda_run_metrics`, HPDA runs add their selection diagnostics."""
     rng = as_rng(rng)
     params = hpda_parameters(case)
     if scenario_overrides:
-        from dataclasses import replace
         params = replace(params, **scenario_overrides)
-    truth = _TRUTH_CACHE.get("B")
+    truth = _TRUTH_CACHE.get(params.n_scans)
     if truth is None:
-        truth = _TRUTH_CACHE.setdefault("B", hpda_truth("B"))
+        truth = _TRUTH_CACHE.setdefault(params.n_scans,
+                                        hpda_truth("B", n_scans=params.n_scans))
     cfgs = hpda_tracker_configs(params, **(overrides or {}))
+    for key in algorithms:
+        if key not in cfgs:
+            raise ValueError(f"unknown algorithm {key!r}; expected one of {HPDA_ALGORITHMS}")
     streams = rng.spawn(1 + len(algorithms))
     scans = simulate_hpda_scans(truth, params, streams[0])
     out = {"n_measurements": int(scans.offsets[-1])}
     for key, r in zip(algorithms, streams[1:]):
-        if key not in cfgs:
-            raise ValueError(f"unknown algorithm {key!r}; expected one of {HPDA_ALGORITHMS}")
         res = _run_algorithm(key, cfgs[key], scans, r)
-        conf, term = track_delays(res, truth)
+        conf, term = track_delays(res, truth, T=params.T)
         rec = {"count": res.count, "aux": res.aux, "conf_delay": conf, "term_delay": term}
+        if metrics:
+            rec["metrics"] = hpda_run_metrics(res, truth)
+        if res.diagnostics is not None:
+            rec["diagnostics"] = res.diagnostics
         if keep_estimates:
             rec["run"] = res
         out[key] = rec
@@ -324,3 +526,54 @@ def run_hpda_trial(rng, case, algorithms=("hpda", "phd", "clustering"), keep_est
 
 
 _TRUTH_CACHE: dict = {}
+
+
+def count_error_ci(counts, n_true, *, versus=None, paired=True, kind="e", early=None,
+                   seed=0) -> Estimate:
+    """The chapter's count errors over Monte Carlo runs, with a BCa bootstrap interval.
+
+    ``counts`` ``(n_runs, K)``: estimated counts per run and scan; ``n_true`` ``(K,)``.
+    With ``kind="e"`` the statistic is ``e = mean_k |Nbar_k - N_k|`` and with
+    ``kind="s"`` it is ``s = mean_k (Nbar_k - N_k)``, ``Nbar_k`` the mean over runs;
+    ``early=n`` restricts the mean over scans to the first ``n`` scans.  ``versus``
+    (another algorithm's counts) gives the interval of the difference
+    ``stat(counts) - stat(versus)``: paired (same runs, resampled together, equal
+    shapes) or, with ``paired=False``, independent samples (e.g. two environments).
+    The runs are resampled and ``Nbar`` recomputed for every resample.
+    """
+    if kind not in ("e", "s"):
+        raise ValueError(f"kind must be 'e' or 's', got {kind!r}")
+    C = as_array(counts, "counts", ndim=2)
+    K = C.shape[1]
+    N = as_array(n_true, "n_true", shape=(K,))
+    k1 = K if early is None else as_int(early, "early", minimum=1)
+    if k1 > K:
+        raise ValueError(f"early must be <= {K}, got {k1}")
+    D = [(C - N)[:, :k1]]
+    if versus is not None:
+        V = as_array(versus, "versus", ndim=2)
+        if (paired and V.shape != C.shape) or V.shape[1] != K:
+            raise ValueError(f"versus must have shape {C.shape if paired else ('n', K)}, "
+                             f"got {V.shape}")
+        D.append((V - N)[:, :k1])
+    for Dm in D:
+        if Dm.shape[0] < 2:
+            raise ValueError("counts and versus need at least 2 runs")
+
+    def one(idx, Dm):
+        ii = idx.astype(np.int64)
+        b, m = ii.shape
+        n = Dm.shape[0]
+        flat = (ii + n * np.arange(b)[:, None]).ravel()
+        M = (np.bincount(flat, minlength=b * n).reshape(b, n) / m) @ Dm
+        return np.abs(M).mean(axis=1) if kind == "e" else M.mean(axis=1)
+
+    if versus is None:
+        return bootstrap_ci(lambda i: one(i, D[0]), np.arange(D[0].shape[0], dtype=float),
+                            seed=seed)
+    if paired:
+        return bootstrap_ci(lambda i: one(i, D[0]) - one(i, D[1]),
+                            np.arange(D[0].shape[0], dtype=float), seed=seed)
+    return bootstrap_ci(lambda i, j: one(i, D[0]) - one(j, D[1]),
+                        np.arange(D[0].shape[0], dtype=float),
+                        np.arange(D[1].shape[0], dtype=float), paired=False, seed=seed)

@@ -1,6 +1,7 @@
 """HPDA-PF: automatic multi-target detection and tracking with Highest
 Probability Data Association and particle filters (Kim & Song 2007, Fig 3;
-flow reconstructed in spec section 6.3).
+the flow is reconstructed from the paper's text, see the chapter's
+"Single runs" page).
 
 Every scan, for every track (tentative or confirmed):
 
@@ -24,7 +25,10 @@ spawns a new tentative track (``p_0``), first updated at the next scan.
 
 Choices (not in the paper) are fields of :class:`HpdaPfConfig` and are
 documented there.  The whole run is one numba kernel over fixed-capacity
-arrays; particles are ``(N, 4)`` per confirmed track.
+arrays; particles are ``(N, 4)`` per confirmed track.  Gating visits only
+the measurements whose bearing lies within the gate's bearing extent
+(a binary search in the scan sorted by bearing), so dense scans cost
+``O(log m)`` per track and scan plus the validated returns.
 """
 from __future__ import annotations
 
@@ -37,11 +41,9 @@ import numpy as np
 
 from ..association.gating import gate_threshold
 from ..association.hpda import (hpda_conditional_rank_kernel, hpda_existence_delta_kernel,
-                                hpda_mixture_loglik_kernel, rank_log_q_kernel)
-from ..association.pda import pda_update_kernel
-from ..filters.kalman import kf_predict_kernel
+                                hpda_mixture_loglik_kernel)
 from ..filters.particle import systematic_indices_kernel
-from ..core.validation import as_array, as_int, as_offsets, as_rng
+from ..core.validation import as_array, as_offsets, as_rng
 from ..models.measurement import (range_bearing_jacobian_kernel, range_bearing_kernel,
                                   wrap_angle_kernel)
 
@@ -52,7 +54,7 @@ __all__ = [
     "SELECT_HPDA",
     "SELECT_STRONGEST",
     "SELECT_NEAREST",
-    "jump_markov_propagate_kernel",
+    "SELECTION_DIAGNOSTICS",
     "check_scans",
 ]
 
@@ -62,19 +64,100 @@ SELECT_STRONGEST = 1
 SELECT_NEAREST = 2
 _RULES = {"hpda": SELECT_HPDA, "strongest": SELECT_STRONGEST, "nearest": SELECT_NEAREST}
 
+#: columns of :attr:`TrackerRun.diagnostics` (rows: confirmed, tentative tracks)
+SELECTION_DIAGNOSTICS = (
+    "track_scans",       # track-scans processed
+    "m_ge_1",            # ... with at least one validated measurement
+    "m_ge_2",            # ... with two or more (the only ones where the rules can differ)
+    "hpda_ne_nearest",   # ... where eq (15) picks another measurement than the nearest
+    "hpda_ne_strongest",  # ... where eq (15) picks another measurement than the strongest
+    "sum_lambda_vg",     # sum of lambda V_G (expected clutter in the gate) over track-scans
+    "dropped",           # candidates not opened for lack of capacity (tentative row only)
+)
+
+
+# --------------------------------------------------------------------------
+# validation of the configuration records (shared with the other trackers)
+# --------------------------------------------------------------------------
+def _finite(obj, name, *, low=None, high=None, low_open=False, high_open=False):
+    """Check ``obj.name`` is a finite real in the given range; store it as float."""
+    v = getattr(obj, name)
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer,
+                                                             np.floating)):
+        raise TypeError(f"{name} must be a real number, got {type(v).__name__}")
+    v = float(v)
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {v}")
+    if low is not None and (v <= low if low_open else v < low):
+        raise ValueError(f"{name} must be {'>' if low_open else '>='} {low}, got {v}")
+    if high is not None and (v >= high if high_open else v > high):
+        raise ValueError(f"{name} must be {'<' if high_open else '<='} {high}, got {v}")
+    object.__setattr__(obj, name, v)
+    return v
+
+
+def _integer(obj, name, minimum):
+    v = getattr(obj, name)
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
+        if isinstance(v, (float, np.floating)) and math.isfinite(v) and float(v).is_integer():
+            v = int(v)
+        else:
+            raise TypeError(f"{name} must be an integer, got {v!r}")
+    v = int(v)
+    if v < minimum:
+        raise ValueError(f"{name} must be >= {minimum}, got {v}")
+    object.__setattr__(obj, name, v)
+    return v
+
+
+def _flag(obj, name):
+    v = getattr(obj, name)
+    if not isinstance(v, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a bool, got {type(v).__name__}")
+    object.__setattr__(obj, name, bool(v))
+
+
+def _tpm(obj, name="mode_tpm"):
+    try:
+        tpm = np.array(getattr(obj, name), dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be a 3x3 matrix of numbers") from None
+    if tpm.shape != (3, 3):
+        raise ValueError(f"{name} must be 3x3, got shape {tpm.shape}")
+    if (not np.all(np.isfinite(tpm)) or np.any(tpm < 0)
+            or np.any(np.abs(tpm.sum(axis=1) - 1) > 1e-9)):
+        raise ValueError(f"{name} must be a row-stochastic 3x3 matrix (entries >= 0, "
+                         f"rows summing to 1), got {tpm.tolist()}")
+    object.__setattr__(obj, name, tuple(tuple(float(v) for v in row) for row in tpm))
+
+
+def _motion_and_sensor(obj):
+    """The fields every tracker of the chapter shares, checked the same way."""
+    _finite(obj, "pd", low=0.0, high=1.0, low_open=True, high_open=True)
+    _finite(obj, "clutter_density_xy", low=0.0, low_open=True)
+    _finite(obj, "T", low=0.0, low_open=True)
+    _finite(obj, "sigma_r", low=0.0, low_open=True)
+    _finite(obj, "sigma_theta", low=0.0, high=math.pi, low_open=True)
+    _finite(obj, "sigma_a", low=0.0)
+    _finite(obj, "a_m", low=0.0)
+    _finite(obj, "velocity_std", low=0.0)
+    _tpm(obj)
+
 
 @dataclass(frozen=True)
 class HpdaPfConfig:
-    """Parameters of the HPDA-PF tracker.
+    """Parameters of the HPDA-PF tracker; every field is checked when the record is
+    built (``ValueError``/``TypeError`` naming the field).
 
-    Environment (from the paper): ``pd``, ``snr`` (linear rho),
-    ``clutter_density_xy`` (lambda V / V per m^2), ``T``, ``sigma_r``,
-    ``sigma_theta``, ``sigma_a`` (model acceleration std), ``a_m``
+    Environment (from the paper): ``pd`` (in (0, 1)), ``snr`` (linear rho >= 0),
+    ``clutter_density_xy`` (lambda V / V per m^2, > 0), ``T`` (s), ``sigma_r`` (m),
+    ``sigma_theta`` (rad), ``sigma_a`` (model acceleration std, m/s^2), ``a_m``
     (manoeuvre acceleration), ``n_particles = 1000`` per confirmed track,
     ``p_confirm = 0.9`` (P_c), ``p_terminate = 0.6`` (P_t).
 
-    Choices (spec section 5.2, labelled as such in the book):
-    ``gate_probability = 0.99`` (g^2 = 9.21), ``pi11 = 0.98``, ``pi12 = 0``,
+    Choices (the book's, stated in the chapter's "Choices we made"):
+    ``gate_probability = 0.99`` (g^2 = 9.21); ``pi11 = 0.99`` (the same death prior
+    as the SMC-PHD filter's survival probability ``P_S = 0.99``), ``pi12 = 0``;
     ``p_initial = 0.01``, ``p_delete = 5e-4``, ``velocity_std = 1.5`` m/s
     (prior of new tracks), mode transition matrix ``mode_tpm`` (rows: from
     CV, left, right), ``tentative_sigma_a = 0.01`` m/s^2 (the tentative EKF
@@ -82,9 +165,9 @@ class HpdaPfConfig:
     ``max_confirmed``/``max_tentative`` capacities, ``selection`` rule
     (``"hpda"``; ``"strongest"``/``"nearest"`` for the book's ablation),
     ``duplicate_scans = 3`` (two confirmed tracks selecting the same
-    measurement that many scans in a row: the less likely one is dropped),
-    and ``tentative_yield = True`` (a tentative track that selects the
-    same measurement as a confirmed track is deleted: the confirmed track
+    measurement that many scans in a row: the less likely one is dropped; 0
+    disables), and ``tentative_yield = True`` (a tentative track that selects
+    the same measurement as a confirmed track is deleted: the confirmed track
     owns it).
     """
     pd: float
@@ -99,7 +182,7 @@ class HpdaPfConfig:
     p_confirm: float = 0.9
     p_terminate: float = 0.6
     gate_probability: float = 0.99
-    pi11: float = 0.98
+    pi11: float = 0.99
     pi12: float = 0.0
     p_initial: float = 0.01
     p_delete: float = 5e-4
@@ -112,6 +195,31 @@ class HpdaPfConfig:
     duplicate_scans: int = 3
     tentative_yield: bool = True
 
+    def __post_init__(self):
+        _motion_and_sensor(self)
+        _finite(self, "snr", low=0.0)
+        _integer(self, "n_particles", 1)
+        _finite(self, "p_confirm", low=0.0, high=1.0, low_open=True)
+        _finite(self, "p_terminate", low=0.0, high=1.0, high_open=True)
+        _finite(self, "gate_probability", low=0.0, high=1.0, low_open=True, high_open=True)
+        _finite(self, "pi11", low=0.0, high=1.0)
+        _finite(self, "pi12", low=0.0, high=1.0)
+        _finite(self, "p_initial", low=0.0, high=1.0, low_open=True, high_open=True)
+        _finite(self, "p_delete", low=0.0, high=1.0, high_open=True)
+        _finite(self, "tentative_sigma_a", low=0.0)
+        _integer(self, "max_confirmed", 1)
+        _integer(self, "max_tentative", 1)
+        _integer(self, "duplicate_scans", 0)
+        _flag(self, "tentative_yield")
+        if self.p_terminate > self.p_confirm:
+            raise ValueError(f"p_terminate must be <= p_confirm, got {self.p_terminate} > "
+                             f"{self.p_confirm}")
+        if self.p_delete >= self.p_confirm:
+            raise ValueError(f"p_delete must be < p_confirm, got {self.p_delete}")
+        if not isinstance(self.selection, str) or self.selection not in _RULES:
+            raise ValueError(f"selection must be one of {tuple(_RULES)}, got "
+                             f"{self.selection!r}")
+
     @property
     def tau(self) -> float:
         return -(1.0 + self.snr) * math.log(self.pd)
@@ -123,16 +231,26 @@ class HpdaPfConfig:
 
 
 class TrackerRun(NamedTuple):
-    """Output of a multi-target tracker run over K scans."""
-    count: np.ndarray       # (K,) estimated number of targets
-    estimates: np.ndarray   # (K, C, 4) estimated states, rows 0..n_estimates[k]-1 valid
-    ids: np.ndarray         # (K, C) track ids (-1 unused)
-    n_estimates: np.ndarray  # (K,)
-    aux: np.ndarray         # (K,) algorithm-specific (HPDA: tentative tracks; PHD: sum of weights)
+    """Output of a multi-target tracker run over K scans.
+
+    ``count`` (K,) estimated number of targets; ``estimates`` (K, C, 4) estimated
+    states, rows ``0 .. n_estimates[k] - 1`` valid; ``ids`` (K, C) track ids (-1
+    unused); ``n_estimates`` (K,); ``aux`` (K,) algorithm-specific (HPDA: number of
+    tentative tracks; SMC-PHD: sum of weights; clustering: number of tracks);
+    ``diagnostics`` (HPDA only, else ``None``): a (2, 7) array, rows confirmed and
+    tentative tracks, columns :data:`SELECTION_DIAGNOSTICS`.
+    """
+    count: np.ndarray
+    estimates: np.ndarray
+    ids: np.ndarray
+    n_estimates: np.ndarray
+    aux: np.ndarray
+    diagnostics: np.ndarray | None = None
 
 
 def check_scans(z, amplitude, offsets):
-    """Validate a concatenated run of scans; returns contiguous arrays."""
+    """Validate a concatenated run of scans (ranges ``> 0``, finite bearings, no NaN
+    amplitude, valid offsets); returns contiguous arrays ``(z, amplitude, offsets)``."""
     Z = as_array(z, "z", ndim=2)
     if Z.shape[1] != 2:
         raise ValueError(f"z must have shape (M, 2), got {Z.shape}")
@@ -142,6 +260,8 @@ def check_scans(z, amplitude, offsets):
     if np.isnan(A).any():
         raise ValueError("amplitude must not contain NaN")
     off = as_offsets(offsets, Z.shape[0])
+    if Z.shape[0] and not Z[:, 0].min() > 0.0:
+        raise ValueError("z[:, 0] (range) must be > 0")
     return Z, np.ascontiguousarray(A, dtype=np.float64), off
 
 
@@ -219,65 +339,118 @@ def _particle_moments(X, zhat, S, R):
 
 
 @nb.njit(cache=True)
-def _gate_and_select(Zs, As_order, zhat, S, g2, pd, pg, c, lam_xy, rule,
-                     vidx, d2buf, ndens, pt, pf):
-    """Gate the (amplitude-ordered) scan, rank-select a measurement.
+def _bearing_window(bsorted, lo, hi):
+    """Index range ``[i0, i1)`` of the sorted bearings within ``[lo, hi]``."""
+    i0 = np.searchsorted(bsorted, lo, side="left")
+    i1 = np.searchsorted(bsorted, hi, side="right")
+    return i0, i1
 
-    Returns ``(m, s_idx, beta_s, delta, pt_s, pf_s, V_G, normal_s)`` where
-    ``s_idx`` is the scan index of ``z^s`` (-1 if m = 0)."""
+
+@nb.njit(cache=True)
+def _gate_and_select(Zs, As, border, bsorted, zhat, S, g2, pd, pg, c, lam_xy, rule,
+                     vidx, d2buf, ndens, pt, pf):
+    """Gate the scan, rank the validated returns by amplitude and select one.
+
+    ``border`` is the scan's order by bearing and ``bsorted`` the sorted bearings: only
+    returns within the gate's bearing extent ``sqrt(g^2 S_11)`` (wrapped) are tested.
+    Returns ``(m, s_idx, beta_s, delta, pt_s, pf_s, V_G, s_used, s_hpda, s_nn)``:
+    ``s_idx`` is the scan index of ``z^s`` (-1 if m = 0), the last three are ranks
+    (0 = strongest) chosen by the rule in use, by eq (15) and by the nearest
+    neighbour."""
     det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
     i00 = S[1, 1] / det
     i01 = -S[0, 1] / det
     i11 = S[0, 0] / det
     sq = math.sqrt(det)
     VG = math.pi * g2 * sq
+    hw = math.sqrt(g2 * S[1, 1]) * (1.0 + 1e-9) + 1e-12
     m = 0
-    for jj in range(As_order.shape[0]):
-        j = As_order[jj]
-        n0 = Zs[j, 0] - zhat[0]
-        n1 = wrap_angle_kernel(Zs[j, 1] - zhat[1])
-        d2 = i00 * n0 * n0 + 2.0 * i01 * n0 * n1 + i11 * n1 * n1
-        if d2 <= g2:
-            vidx[m] = j
-            d2buf[m] = d2
-            ndens[m] = math.exp(-0.5 * d2) / (2.0 * math.pi * sq)
-            m += 1
+    n_win = 1
+    lo0, hi0, lo1, hi1 = zhat[1] - hw, zhat[1] + hw, 1.0, 0.0
+    if hw >= math.pi:
+        lo0, hi0 = -np.inf, np.inf
+    elif lo0 < -math.pi:
+        lo1, hi1 = lo0 + 2.0 * math.pi, np.inf
+        n_win = 2
+    elif hi0 > math.pi:
+        lo1, hi1 = -np.inf, hi0 - 2.0 * math.pi
+        n_win = 2
+    for w in range(n_win):
+        if w == 0:
+            i0, i1 = _bearing_window(bsorted, lo0, hi0)
+        else:
+            i0, i1 = _bearing_window(bsorted, lo1, hi1)
+        for q in range(i0, i1):
+            j = border[q]
+            n0 = Zs[j, 0] - zhat[0]
+            n1 = wrap_angle_kernel(Zs[j, 1] - zhat[1])
+            d2 = i00 * n0 * n0 + 2.0 * i01 * n0 * n1 + i11 * n1 * n1
+            if d2 <= g2:
+                # insert, keeping the validated returns in decreasing amplitude
+                pos = m
+                while pos > 0 and As[vidx[pos - 1]] < As[j]:
+                    vidx[pos] = vidx[pos - 1]
+                    d2buf[pos] = d2buf[pos - 1]
+                    ndens[pos] = ndens[pos - 1]
+                    pos -= 1
+                vidx[pos] = j
+                d2buf[pos] = d2
+                ndens[pos] = math.exp(-0.5 * d2) / (2.0 * math.pi * sq)
+                m += 1
     pdpg = pd * pg
     lam_z = lam_xy * zhat[0]
     if m == 0:
-        return 0, -1, 0.0, pdpg, 0.0, 0.0, VG, 0.0
+        return 0, -1, 0.0, pdpg, 0.0, 0.0, VG, -1, -1, -1
     clutter_mean = lam_z * VG
     hpda_conditional_rank_kernel(m, c, pdpg, clutter_mean, pt, pf)
     best = -1.0
-    s = 0
+    s_h = 0
+    for l in range(m):
+        fT = ndens[l] / pg
+        num = fT * pt[l]
+        b = num / (num + pf[l] / VG)
+        if b > best:
+            best = b
+            s_h = l
+    s_nn = 0
+    dmin = 1e300
+    for l in range(m):
+        if d2buf[l] < dmin:
+            dmin = d2buf[l]
+            s_nn = l
     if rule == 0:
-        for l in range(m):
-            fT = ndens[l] / pg
-            num = fT * pt[l]
-            b = num / (num + pf[l] / VG)
-            if b > best:
-                best = b
-                s = l
+        s = s_h
     elif rule == 1:
         s = 0
     else:
-        dmin = 1e300
-        for l in range(m):
-            if d2buf[l] < dmin:
-                dmin = d2buf[l]
-                s = l
+        s = s_nn
     fT = ndens[s] / pg
     num = fT * pt[s]
     beta = num / (num + pf[s] / VG)
-    q_s = math.exp(rank_log_q_kernel(s + 1.0, float(m), c))
+    # q(s, m) from P(M_T^s | m) = pdpg m q / ((1 - pdpg) lambda V_G + pdpg m)
+    q_s = pt[s] * ((1.0 - pdpg) * clutter_mean + pdpg * m) / (pdpg * m)
     delta = hpda_existence_delta_kernel(m, q_s, pd, pg, lam_z, VG, ndens[s])
-    return m, vidx[s], beta, delta, pt[s], pf[s], VG, ndens[s]
+    return m, vidx[s], beta, delta, pt[s], pf[s], VG, s, s_h, s_nn
+
+
+@nb.njit(cache=True)
+def _count_selection(diag, row, m, s_h, s_nn, lam_vg):
+    diag[row, 0] += 1.0
+    diag[row, 5] += lam_vg
+    if m >= 1:
+        diag[row, 1] += 1.0
+    if m >= 2:
+        diag[row, 2] += 1.0
+        if s_h != s_nn:
+            diag[row, 3] += 1.0
+        if s_h != 0:
+            diag[row, 4] += 1.0
 
 
 @nb.njit(cache=True)
 def _weight_resample(X, modes, z, Rinv, logdetR, log_pt, log_pf_vg, logw, scratch, mscratch,
                      idx, rng):
-    """Eq (13) weights for ``z^s`` (:func:`hpda_mixture_loglik_kernel`),
+    """Eq (13) weights for ``z^s`` (``hpda_mixture_loglik_kernel``),
     then systematic resampling in place (one ``rng.random()``)."""
     N = X.shape[0]
     hpda_mixture_loglik_kernel(X, z, Rinv, logdetR, 0.0, 0.0, log_pt, log_pf_vg, logw)
@@ -337,8 +510,89 @@ def _ekf_moments(X1, P, R, zhat, S, H3):
 
 
 @nb.njit(cache=True)
-def _hpda_run_kernel(Z, A, off, prm, cum_tpm, F_t, Q_t, R, rng,
-                     out_count, out_est, out_id, out_n, out_aux):
+def _cv_predict(x, P, T, Q, x_out, P_out):
+    """Constant-velocity Kalman prediction ``x' = F x``, ``P' = F P F^T + Q`` for
+    ``F = [[I, T I], [0, I]]``, written out (no temporaries) for the tentative
+    tracks' inner loop."""
+    x_out[0] = x[0] + T * x[2]
+    x_out[1] = x[1] + T * x[3]
+    x_out[2] = x[2]
+    x_out[3] = x[3]
+    for i in range(4):
+        for j in range(i + 1):
+            # (F P F^T)_ij with F = I + T E, E[0, 2] = E[1, 3] = 1
+            v = P[i, j]
+            if i < 2:
+                v += T * P[i + 2, j]
+            if j < 2:
+                v += T * P[i, j + 2]
+            if i < 2 and j < 2:
+                v += T * T * P[i + 2, j + 2]
+            v += 0.5 * (Q[i, j] + Q[j, i])
+            P_out[i, j] = v
+            P_out[j, i] = v
+
+
+@nb.njit(cache=True)
+def _pda1_update(x, P, z, zhat, H, R, beta, x_out, P_out, K, A):
+    """PDA update of an EKF (state (4,), measurement (2,)) with one validated
+    measurement ``z`` of association probability ``beta`` (``beta_0 = 1 - beta``):
+    ``x + K beta nu`` and ``beta_0 P + beta P_c + K beta (1 - beta) nu nu^T K^T``,
+    ``P_c`` the Joseph-form updated covariance; bearing innovation wrapped.  The
+    single-measurement case of :func:`trackcore.association.pda_update`, written out
+    with the work arrays ``K`` (4, 2) and ``A`` (4, 4) for the tentative tracks'
+    inner loop (a unit test checks the two agree)."""
+    # S = H P H^T + R and its inverse
+    s00 = R[0, 0]
+    s01 = R[0, 1]
+    s11 = R[1, 1]
+    for c in range(4):
+        for d in range(4):
+            pcd = P[c, d]
+            s00 += H[0, c] * pcd * H[0, d]
+            s01 += H[0, c] * pcd * H[1, d]
+            s11 += H[1, c] * pcd * H[1, d]
+    det = s00 * s11 - s01 * s01
+    i00, i01, i11 = s11 / det, -s01 / det, s00 / det
+    # K = P H^T S^-1
+    for i in range(4):
+        p0 = 0.0
+        p1 = 0.0
+        for c in range(4):
+            p0 += P[i, c] * H[0, c]
+            p1 += P[i, c] * H[1, c]
+        K[i, 0] = p0 * i00 + p1 * i01
+        K[i, 1] = p0 * i01 + p1 * i11
+    nu0 = z[0] - zhat[0]
+    nu1 = wrap_angle_kernel(z[1] - zhat[1])
+    for i in range(4):
+        x_out[i] = x[i] + beta * (K[i, 0] * nu0 + K[i, 1] * nu1)
+    # A = I - K H
+    for i in range(4):
+        for j in range(4):
+            A[i, j] = (1.0 if i == j else 0.0) - K[i, 0] * H[0, j] - K[i, 1] * H[1, j]
+    spread = beta * (1.0 - beta)
+    for i in range(4):
+        kn_i = K[i, 0] * nu0 + K[i, 1] * nu1
+        for j in range(i + 1):
+            # Joseph form (A P A^T + K R K^T)_ij
+            v = 0.0
+            for c in range(4):
+                apc = 0.0
+                for d in range(4):
+                    apc += P[c, d] * A[j, d]
+                v += A[i, c] * apc
+            v += (K[i, 0] * (R[0, 0] * K[j, 0] + R[0, 1] * K[j, 1])
+                  + K[i, 1] * (R[1, 0] * K[j, 0] + R[1, 1] * K[j, 1]))
+            kn_j = K[j, 0] * nu0 + K[j, 1] * nu1
+            val = (1.0 - beta) * P[i, j] + beta * v + spread * kn_i * kn_j
+            P_out[i, j] = val
+            P_out[j, i] = val
+
+
+@nb.njit(cache=True)
+def _hpda_run_kernel(Z, A, off, prm, cum_tpm, Q_t, R, rng,
+                     out_count, out_est, out_id, out_n, out_aux, diag):
     (pd, pg, g2, c, lam_xy, T, sigma_a, a_m, p_conf, p_term, pi11, pi12, p0, p_del,
      vstd, rule_f, dup_f, yield_f) = (prm[0], prm[1], prm[2], prm[3], prm[4], prm[5], prm[6],
                                       prm[7], prm[8], prm[9], prm[10], prm[11], prm[12],
@@ -368,11 +622,8 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, F_t, Q_t, R, rng,
     ridx = np.zeros(N, dtype=np.int64)
     xb = np.zeros(4)
     Pb = np.zeros((4, 4))
-    zsel = np.zeros((1, 2))
-    bsel = np.zeros(1)
-    nu_b = np.zeros(2)
-    S_b = np.zeros((2, 2))
     K_b = np.zeros((4, 2))
+    A_b = np.zeros((4, 4))
     zhat = np.zeros(2)
     S = np.zeros((2, 2))
     H3 = np.zeros((1, 2, 4))
@@ -385,11 +636,15 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, F_t, Q_t, R, rng,
     ndens = np.zeros(mmax)
     pt = np.zeros(mmax)
     pf = np.zeros(mmax)
+    thint = 0   # lowest tentative slot that may be free
     for k in range(K):
         Zs = Z[off[k]:off[k + 1]]
         As = A[off[k]:off[k + 1]]
         m_k = Zs.shape[0]
-        order = np.argsort(-As)
+        border = np.argsort(Zs[:, 1])
+        bsorted = np.empty(m_k)
+        for q in range(m_k):
+            bsorted[q] = Zs[border[q], 1]
         in_conf = np.zeros(m_k, dtype=np.bool_)
         selected = np.zeros(m_k, dtype=np.bool_)
         # ---- confirmed tracks
@@ -400,8 +655,10 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, F_t, Q_t, R, rng,
             jump_markov_propagate_kernel(X, cM[t], cum_tpm, T, sigma_a, a_m, rng)
             ppred = pi11 * cp[t] + pi12 * (1.0 - cp[t])
             _particle_moments(X, zhat, S, R)
-            m, js, beta, delta, pts, pfs, VG, nds = _gate_and_select(
-                Zs, order, zhat, S, g2, pd, pg, c, lam_xy, rule, vidx, d2buf, ndens, pt, pf)
+            m, js, beta, delta, pts, pfs, VG, s_u, s_h, s_nn = _gate_and_select(
+                Zs, As, border, bsorted, zhat, S, g2, pd, pg, c, lam_xy, rule, vidx, d2buf,
+                ndens, pt, pf)
+            _count_selection(diag, 0, m, s_h, s_nn, lam_xy * zhat[0] * VG)
             for l in range(m):
                 in_conf[vidx[l]] = True
             den = 1.0 - delta * ppred
@@ -438,14 +695,16 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, F_t, Q_t, R, rng,
         for t in range(NT):
             if not tact[t]:
                 continue
-            kf_predict_kernel(tx[t], tP[t], F_t, Q_t, xb, Pb)
+            _cv_predict(tx[t], tP[t], T, Q_t, xb, Pb)
             tx[t, :] = xb
             tP[t, :, :] = Pb
             ppred = pi11 * tp[t] + pi12 * (1.0 - tp[t])
             _ekf_moments(tx[t:t + 1], tP[t], R, zhat, S, H3)
             H = H3[0]
-            m, js, beta, delta, pts, pfs, VG, nds = _gate_and_select(
-                Zs, order, zhat, S, g2, pd, pg, c, lam_xy, rule, vidx, d2buf, ndens, pt, pf)
+            m, js, beta, delta, pts, pfs, VG, s_u, s_h, s_nn = _gate_and_select(
+                Zs, As, border, bsorted, zhat, S, g2, pd, pg, c, lam_xy, rule, vidx, d2buf,
+                ndens, pt, pf)
+            _count_selection(diag, 1, m, s_h, s_nn, lam_xy * zhat[0] * VG)
             den = 1.0 - delta * ppred
             tp[t] = 1.0 if den <= 0.0 else min(1.0, max(0.0, (1.0 - delta) * ppred / den))
             if m > 0:
@@ -456,14 +715,11 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, F_t, Q_t, R, rng,
                             owned = True
                 if owned:
                     tact[t] = False
+                    thint = min(thint, t)
                     continue
                 selected[js] = True
                 # single-measurement PDA update of the EKF with beta^s
-                zsel[0, 0] = Zs[js, 0]
-                zsel[0, 1] = Zs[js, 1]
-                bsel[0] = beta
-                pda_update_kernel(tx[t], tP[t], zsel, zhat, H, R, bsel, 1.0 - beta, 1,
-                                  xb, Pb, nu_b, S_b, K_b)
+                _pda1_update(tx[t], tP[t], Zs[js], zhat, H, R, beta, xb, Pb, K_b, A_b)
                 tx[t, :] = xb
                 tP[t, :, :] = Pb
             if tp[t] >= p_conf:
@@ -473,13 +729,13 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, F_t, Q_t, R, rng,
                         slot = u
                         break
                 tact[t] = False
+                thint = min(thint, t)
                 if slot >= 0:
                     # sample the EKF posterior into N particles, all in CV mode
                     Pm = tP[t]
                     for a in range(4):
                         for b in range(4):
                             Lc[a, b] = 0.0
-                    ok = True
                     for a in range(4):
                         for b in range(a + 1):
                             s = Pm[a, b]
@@ -487,7 +743,6 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, F_t, Q_t, R, rng,
                                 s -= Lc[a, e] * Lc[b, e]
                             if a == b:
                                 if s <= 0.0:
-                                    ok = False
                                     s = 1e-12
                                 Lc[a, a] = math.sqrt(s)
                             else:
@@ -509,17 +764,18 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, F_t, Q_t, R, rng,
                     next_id += 1
             elif tp[t] < p_del:
                 tact[t] = False
+                thint = min(thint, t)
         # ---- new candidates
         for j in range(m_k):
             if in_conf[j] or selected[j]:
                 continue
-            slot = -1
-            for u in range(NT):
-                if not tact[u]:
-                    slot = u
-                    break
-            if slot < 0:
-                break
+            while thint < NT and tact[thint]:
+                thint += 1
+            if thint >= NT:
+                diag[1, 6] += 1.0
+                continue
+            slot = thint
+            thint += 1
             _polar_init(Zs[j, 0], Zs[j, 1], R, vstd, tx[slot], tP[slot])
             tp[slot] = p0
             tact[slot] = True
@@ -551,28 +807,17 @@ def hpda_pf_run(z, amplitude, offsets, config: HpdaPfConfig, rng) -> TrackerRun:
     ``amplitude`` ``(M,)``, ``offsets`` ``(K + 1,)`` (scan ``k`` is rows
     ``offsets[k]:offsets[k+1]``; empty scans are valid).  Sensor at the
     origin.  Returns a :class:`TrackerRun` with the number of confirmed
-    tracks per scan and their estimates (``aux``: number of tentative tracks).
+    tracks per scan and their estimates (``aux``: number of tentative tracks;
+    ``diagnostics``: how often the selection rules could and did differ).
     """
     if not isinstance(config, HpdaPfConfig):
         raise TypeError(f"config must be HpdaPfConfig, got {type(config).__name__}")
     rng = as_rng(rng)
     Z, A, off = check_scans(z, amplitude, offsets)
     cfg = config
-    if not 0.0 < cfg.pd < 1.0:
-        raise ValueError(f"config.pd must lie in (0, 1), got {cfg.pd}")
-    if not 0.0 < cfg.gate_probability < 1.0:
-        raise ValueError(f"config.gate_probability must lie in (0, 1), got {cfg.gate_probability}")
-    if cfg.clutter_density_xy <= 0:
-        raise ValueError("config.clutter_density_xy must be > 0")
-    if cfg.selection not in _RULES:
-        raise ValueError(f"config.selection must be one of {tuple(_RULES)}, got {cfg.selection!r}")
-    N = as_int(cfg.n_particles, "config.n_particles", minimum=1)
-    tpm = as_array(cfg.mode_tpm, "config.mode_tpm", shape=(3, 3))
-    if np.any(tpm < 0) or np.any(np.abs(tpm.sum(axis=1) - 1) > 1e-9):
-        raise ValueError("config.mode_tpm must be a row-stochastic 3x3 matrix")
-    cum = np.ascontiguousarray(np.cumsum(tpm, axis=1))
+    cum = np.ascontiguousarray(np.cumsum(np.array(cfg.mode_tpm), axis=1))
+    N = cfg.n_particles
     T = cfg.T
-    F_t = np.array([[1, 0, T, 0], [0, 1, 0, T], [0, 0, 1, 0], [0, 0, 0, 1]], dtype=float)
     G = np.array([[T * T / 2, 0], [0, T * T / 2], [T, 0], [0, T]])
     Q_t = np.ascontiguousarray(cfg.tentative_sigma_a ** 2 * G @ G.T)
     R = np.diag([cfg.sigma_r ** 2, cfg.sigma_theta ** 2])
@@ -582,11 +827,12 @@ def hpda_pf_run(z, amplitude, offsets, config: HpdaPfConfig, rng) -> TrackerRun:
                     cfg.velocity_std, float(_RULES[cfg.selection]), float(cfg.duplicate_scans),
                     1.0 if cfg.tentative_yield else 0.0, float(N), float(cfg.max_tentative)])
     K = off.shape[0] - 1
-    C = as_int(cfg.max_confirmed, "config.max_confirmed", minimum=1)
+    C = cfg.max_confirmed
     count = np.zeros(K, dtype=np.int64)
     est = np.full((K, C, 4), np.nan)
     ids = np.full((K, C), -1, dtype=np.int64)
     n_est = np.zeros(K, dtype=np.int64)
     aux = np.zeros(K)
-    _hpda_run_kernel(Z, A, off, prm, cum, F_t, Q_t, R, rng, count, est, ids, n_est, aux)
-    return TrackerRun(count, est, ids, n_est, aux)
+    diag = np.zeros((2, len(SELECTION_DIAGNOSTICS)))
+    _hpda_run_kernel(Z, A, off, prm, cum, Q_t, R, rng, count, est, ids, n_est, aux, diag)
+    return TrackerRun(count, est, ids, n_est, aux, diag)

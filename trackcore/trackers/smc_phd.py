@@ -1,5 +1,5 @@
 """Sequential Monte Carlo PHD filter (Vo, Singh & Doucet 2005) for the
-range-bearing scenario of Kim & Song (2007), spec section 6.2.
+range-bearing scenario of Kim & Song (2007) (the chapter's Fig 2).
 
 Per scan: predict the particles through the jump-Markov model with survival
 ``P_S``; add ``B_k`` birth particles of total mass ``P_birth``; PHD weight
@@ -10,18 +10,18 @@ update
 
 with ``g = N(z; h(x), R)`` in polar coordinates and ``kappa(z) = lambda_xy
 r_z`` the clutter intensity per (m rad) (the update is
-:func:`~trackcore.trackers.smc_phd_step.phd_range_bearing_update_kernel`,
-shared with the step-level API); resample ``L = max(N round(N_hat),
-N)`` particles systematically with weights ``N_hat / L`` (mass preserving);
-extract up to ``round(N_hat)`` point estimates by gated k-means over particle
-positions, initialised from the previous centres and then from the current
+``trackcore.trackers.smc_phd_step.phd_range_bearing_update_kernel``, shared
+with the step-level API); resample ``L = max(N round(N_hat), N)`` particles
+systematically with weights ``N_hat / L`` (mass preserving); extract up to
+``round(N_hat)`` point estimates by gated k-means over particle positions,
+initialised from the previous centres and then from the current
 measurements in decreasing order of their PHD update mass.
 
-Choices (spec section 6.2, documented in the book): births are
+Choices (documented in the chapter's "Choices we made"): births are
 measurement-driven -- ``B_k`` particles split equally over the measurements
 of the previous scan, position from ``z + N(0, R)`` converted to Cartesian,
 velocity ``N(0, velocity_std^2 I)``, then propagated one step; the filter
-starts empty; k-means is deterministic (see :func:`kmeans_extract_kernel`).
+starts empty; k-means is deterministic (``kmeans_extract_kernel``).
 The whole run is one numba kernel.
 """
 from __future__ import annotations
@@ -32,24 +32,27 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from ..core.validation import as_array, as_int, as_rng
+from ..core.validation import as_array, as_rng
 from ..filters.particle import systematic_indices_kernel
 from ..models.measurement import range_bearing_kernel
-from .hpda_pf import TrackerRun, check_scans, jump_markov_propagate_kernel
+from .hpda_pf import (TrackerRun, _finite, _integer, _motion_and_sensor, check_scans,
+                      jump_markov_propagate_kernel)
 from .smc_phd_step import phd_range_bearing_update_kernel
 
-__all__ = ["SmcPhdConfig", "smc_phd_run", "kmeans_extract_kernel"]
+__all__ = ["SmcPhdConfig", "smc_phd_run"]
 
 
 @dataclass(frozen=True)
 class SmcPhdConfig:
-    """Parameters of the SMC-PHD filter.  From the paper: ``pd``, ``T``,
-    ``sigma_r``, ``sigma_theta``, ``sigma_a``, ``a_m``, ``n_per_target = 1000``
-    (N), ``n_birth = 500`` (B_k), ``birth_mass = 0.2`` (P_birth, interpretation
-    flagged in the spec).  Choices: ``p_survival = 0.99``, ``velocity_std =
-    1.5`` m/s, ``mode_tpm``, ``kmeans_iterations = 10``,
+    """Parameters of the SMC-PHD filter; every field is checked when the record is
+    built (``ValueError``/``TypeError`` naming the field).  From the paper: ``pd``,
+    ``T``, ``sigma_r``, ``sigma_theta``, ``sigma_a``, ``a_m``, ``n_per_target =
+    1000`` (N), ``n_birth = 500`` (B_k), ``birth_mass = 0.2`` (P_birth, read as the
+    expected number of births per scan).  Choices: ``p_survival = 0.99``,
+    ``velocity_std = 1.5`` m/s, ``mode_tpm``, ``kmeans_iterations = 10``,
     ``extraction_radius = 1000`` m (particles farther than this from every
-    k-means centre are ignored in the means), ``max_estimates``."""
+    k-means centre are ignored in the means), ``max_estimates``,
+    ``max_particles``."""
     pd: float
     clutter_density_xy: float
     T: float = 10.0
@@ -67,6 +70,19 @@ class SmcPhdConfig:
     extraction_radius: float = 1000.0
     max_estimates: int = 32
     max_particles: int = 40000
+
+    def __post_init__(self):
+        _motion_and_sensor(self)
+        _integer(self, "n_per_target", 1)
+        _integer(self, "n_birth", 0)
+        _finite(self, "birth_mass", low=0.0)
+        if self.n_birth == 0 and self.birth_mass > 0:
+            raise ValueError("n_birth must be >= 1 when birth_mass > 0")
+        _finite(self, "p_survival", low=0.0, high=1.0)
+        _integer(self, "kmeans_iterations", 0)
+        _finite(self, "extraction_radius", low=0.0, low_open=True)
+        _integer(self, "max_estimates", 1)
+        _integer(self, "max_particles", self.n_per_target)
 
 
 @nb.njit(cache=True)
@@ -157,8 +173,9 @@ def _phd_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_n, out
     Mn = np.zeros(cap, dtype=np.int64)
     H = np.zeros((cap, 2))
     fac = np.zeros(cap)
-    gidx = np.zeros(cap, dtype=np.int64)
+    gidx = np.zeros(cap, dtype=np.int64)   # work arrays of the update (allocated once)
     gval = np.zeros(cap)
+    iwork = np.zeros(2 * cap + 2 * (max(64, 4 * cap) + 1), dtype=np.int64)
     L = 0
     i00 = 1.0 / R[0, 0]
     i11 = 1.0 / R[1, 1]
@@ -203,7 +220,7 @@ def _phd_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_n, out
         for jj in range(m):
             kap[jj] = lam_xy * Z[a0 + jj, 0]
         Nhat = phd_range_bearing_update_kernel(H[:L], w[:L], Z[a0:a1], kap, pd, i00, i11, gnorm,
-                                               60.0, fac[:L], zmass, gidx, gval)
+                                               60.0, fac[:L], zmass, gidx, gval, iwork)
         out_aux[k] = Nhat
         # resample: L' = max(N round(Nhat), N), mass preserving
         if L > 0 and Nhat > 0.0:
@@ -255,10 +272,10 @@ def smc_phd_run(z, offsets, config: SmcPhdConfig, rng) -> TrackerRun:
     """Run the SMC-PHD filter over a whole run of scans (sensor at the origin).
 
     ``z`` ``(M, 2)`` range-bearing measurements of all scans concatenated,
-    ``offsets`` ``(K + 1,)``.  Returns a :class:`TrackerRun` whose ``count``
-    is ``round(N_hat)``, ``estimates`` the k-means centres (``n_estimates`` of them,
-    at most ``count``; ``ids`` are -1:
-    the PHD has no track identities) and ``aux`` the total mass ``N_hat``.
+    ``offsets`` ``(K + 1,)``.  Returns a :class:`~trackcore.trackers.hpda_pf.TrackerRun`
+    whose ``count`` is ``round(N_hat)``, ``estimates`` the k-means centres
+    (``n_estimates`` of them, at most ``count``; ``ids`` are -1: the PHD has no track
+    identities) and ``aux`` the total mass ``N_hat``.
     """
     if not isinstance(config, SmcPhdConfig):
         raise TypeError(f"config must be SmcPhdConfig, got {type(config).__name__}")
@@ -266,27 +283,14 @@ def smc_phd_run(z, offsets, config: SmcPhdConfig, rng) -> TrackerRun:
     Z = as_array(z, "z", ndim=2)
     Z, _, off = check_scans(Z, np.zeros(Z.shape[0]), offsets)
     cfg = config
-    if not 0.0 < cfg.pd <= 1.0:
-        raise ValueError(f"config.pd must lie in (0, 1], got {cfg.pd}")
-    if cfg.clutter_density_xy <= 0:
-        raise ValueError("config.clutter_density_xy must be > 0")
-    if not 0.0 <= cfg.p_survival <= 1.0:
-        raise ValueError("config.p_survival must lie in [0, 1]")
-    if cfg.birth_mass < 0:
-        raise ValueError("config.birth_mass must be >= 0")
-    Nt = as_int(cfg.n_per_target, "config.n_per_target", minimum=1)
-    B = as_int(cfg.n_birth, "config.n_birth", minimum=0)
-    Lmax = as_int(cfg.max_particles, "config.max_particles", minimum=Nt)
-    tpm = as_array(cfg.mode_tpm, "config.mode_tpm", shape=(3, 3))
-    if np.any(tpm < 0) or np.any(np.abs(tpm.sum(axis=1) - 1) > 1e-9):
-        raise ValueError("config.mode_tpm must be a row-stochastic 3x3 matrix")
-    cum = np.ascontiguousarray(np.cumsum(tpm, axis=1))
+    cum = np.ascontiguousarray(np.cumsum(np.array(cfg.mode_tpm), axis=1))
     R = np.diag([cfg.sigma_r ** 2, cfg.sigma_theta ** 2])
     prm = np.array([cfg.pd, cfg.clutter_density_xy, cfg.T, cfg.sigma_a, cfg.a_m, cfg.p_survival,
-                    cfg.birth_mass, cfg.velocity_std, float(Nt), float(B),
-                    float(cfg.kmeans_iterations), float(Lmax), float(cfg.extraction_radius)])
+                    cfg.birth_mass, cfg.velocity_std, float(cfg.n_per_target),
+                    float(cfg.n_birth), float(cfg.kmeans_iterations), float(cfg.max_particles),
+                    cfg.extraction_radius])
     K = off.shape[0] - 1
-    C = as_int(cfg.max_estimates, "config.max_estimates", minimum=1)
+    C = cfg.max_estimates
     count = np.zeros(K, dtype=np.int64)
     est = np.full((K, C, 4), np.nan)
     n_est = np.zeros(K, dtype=np.int64)

@@ -11,7 +11,7 @@ One scan:
   birth_cov)`` with weight ``birth_rate / n_birth`` each, appended (the
   birth intensity's total mass is ``birth_rate``, the expected number of new
   targets per scan);
-* update (:func:`phd_range_bearing_update_kernel`, shared with
+* update (``phd_range_bearing_update_kernel``, shared with
   :func:`trackcore.trackers.smc_phd_run`)
 
       w_i <- [1 - P_D + sum_z P_D g(z|x_i) / (kappa(z) + C(z))] w_i,
@@ -30,7 +30,7 @@ are skipped; ``gate=inf`` evaluates every pair.
 
 Random draws per scan, in order: the survivors' process noise (``k``
 standard normals per particle, particle by particle, as
-:func:`trackcore.filters.propagate_linear_kernel`), the births' ``k_b``
+``trackcore.filters.propagate_linear_kernel``), the births' ``k_b``
 standard normals per particle, then one uniform for the resampling offset
 (none when ``N_hat = 0``).
 """
@@ -56,8 +56,6 @@ __all__ = [
     "smc_phd_update",
     "smc_phd_step",
     "smc_phd_filter",
-    "phd_range_bearing_update_kernel",
-    "smc_phd_step_kernel",
 ]
 
 #: default gate on the normalised squared innovation (terms below exp(-30) of the peak skipped)
@@ -67,9 +65,62 @@ DEFAULT_GATE = 60.0
 # --------------------------------------------------------------------------
 # kernels
 # --------------------------------------------------------------------------
+def _grid_work_size(L):
+    """Length of the int64 work array ``iwork`` of ``phd_range_bearing_update_kernel``."""
+    return 2 * L + 2 * (max(64, 4 * L) + 1)
+
+
+@nb.njit(cache=True)
+def _grid_cells(H, wr, wb, iwork):
+    """Bucket the particles by (range, bearing) cells at least ``wr`` by ``wb`` wide.
+
+    ``iwork`` holds, in order: each particle's cell (L), the particles of every cell in
+    index order (L), the start of each cell's run (cells + 1) and a fill pointer
+    (cells).  Returns ``(rmin, cwr, nbr, cwb, nbb)``; ``nbr = 0`` when a grid would not
+    help (an infinite gate, or a bearing window wider than a third of the circle)."""
+    L = H.shape[0]
+    if L == 0 or not (wr < np.inf) or not (wb < 2.0 * math.pi / 3.0):
+        return 0.0, 0.0, 0, 0.0, 0
+    rmin = H[0, 0]
+    rmax = H[0, 0]
+    for i in range(L):
+        rmin = min(rmin, H[i, 0])
+        rmax = max(rmax, H[i, 0])
+    cap = max(64, 4 * L)
+    cwr = wr * (1.0 + 1e-9) + 1e-9
+    nbb = int(2.0 * math.pi / (wb * (1.0 + 1e-9) + 1e-12))
+    nbr = int((rmax - rmin) / cwr) + 1
+    while nbr * nbb > cap:
+        if nbb > 3:
+            nbb = max(3, nbb // 2)
+        else:
+            cwr *= 2.0
+            nbr = int((rmax - rmin) / cwr) + 1
+    cwb = 2.0 * math.pi / nbb
+    nc = nbr * nbb
+    cell = iwork[:L]
+    members = iwork[L:2 * L]
+    start = iwork[2 * L:2 * L + nc + 1]
+    fill = iwork[2 * L + cap + 1:2 * L + cap + 1 + nc]
+    for c in range(nc + 1):
+        start[c] = 0
+    for i in range(L):
+        rb = min(int((H[i, 0] - rmin) / cwr), nbr - 1)
+        bb = min(max(int((H[i, 1] + math.pi) / cwb), 0), nbb - 1)
+        cell[i] = rb * nbb + bb
+        start[cell[i] + 1] += 1
+    for c in range(nc):
+        start[c + 1] += start[c]
+        fill[c] = start[c]
+    for i in range(L):
+        members[fill[cell[i]]] = i
+        fill[cell[i]] += 1
+    return rmin, cwr, nbr, cwb, nbb
+
+
 @nb.njit(cache=True)
 def phd_range_bearing_update_kernel(H, w, Z, kappa, pd, i00, i11, gnorm, gate2, fac, zmass,
-                                    gidx, gval):
+                                    gidx, gval, iwork):
     """PHD weight update in place for a range-bearing sensor with diagonal
     ``R = diag(1 / i00, 1 / i11)``.
 
@@ -77,38 +128,65 @@ def phd_range_bearing_update_kernel(H, w, Z, kappa, pd, i00, i11, gnorm, gate2, 
     ``(L,)`` weights (overwritten by the updated ones); ``Z`` ``(m, 2)``
     measurements; ``kappa`` ``(m,)`` clutter intensity at each measurement
     (per unit of range x bearing); ``gnorm = 1 / (2 pi sqrt(|R|))``; pairs with
-    ``d^2 > gate2`` are skipped (range part tested first).  ``zmass`` ``(m,)``
-    receives ``C(z) / (kappa(z) + C(z))``, the posterior probability that
-    ``z`` came from a target (0 when ``C(z)`` underflows).  Work arrays
-    ``fac`` ``(L,)`` float64, ``gidx`` ``(L,)`` int64 and ``gval`` ``(L,)``
-    float64 (the gated particles of one measurement and their
-    ``exp(-d^2 / 2)``, so the second pass visits only those).  Returns
+    ``d^2 > gate2`` are skipped (range part tested first).  With a finite gate the
+    particles are first bucketed in (range, bearing) cells at least as wide as the
+    gate, and each measurement visits only the particles of its own and the eight
+    neighbouring cells (the others cannot pass the gate), so the cost grows with
+    the gated pairs rather than with ``L m``.  ``zmass`` ``(m,)`` receives
+    ``C(z) / (kappa(z) + C(z))``, the posterior probability that ``z`` came from a
+    target (0 when ``C(z)`` underflows).  Work arrays ``fac`` ``(L,)`` float64,
+    ``gidx`` ``(L,)`` int64 and ``gval`` ``(L,)`` float64 (the gated particles of one
+    measurement and their ``exp(-d^2 / 2)``, so the second pass visits only those),
+    ``iwork`` int64 of length ``2 L + 2 (max(64, 4 L) + 1)`` (the cells).  Returns
     ``N_hat``, the updated total mass."""
     L = H.shape[0]
     m = Z.shape[0]
     for i in range(L):
         fac[i] = 1.0 - pd
+    nbr = 0
+    rmin, cwr, cwb, nbb = 0.0, 1.0, 1.0, 1
+    bz = 0
+    if m > 0 and gate2 < np.inf:
+        rmin, cwr, nbr, cwb, nbb = _grid_cells(H, math.sqrt(gate2 / i00),
+                                               math.sqrt(gate2 / i11), iwork)
+    members = iwork[L:2 * L]
+    start = iwork[2 * L:]
     for jj in range(m):
         zr, zb = Z[jj, 0], Z[jj, 1]
         zmass[jj] = 0.0
         Cz = 0.0
         cnt = 0
-        for i in range(L):
-            dr = zr - H[i, 0]
-            d2 = dr * dr * i00
-            if d2 > gate2:
-                continue
-            db = zb - H[i, 1]
-            if not (-math.pi < db <= math.pi):
-                db = wrap_angle_kernel(db)
-            d2 += db * db * i11
-            if d2 > gate2:
-                continue
-            e = math.exp(-0.5 * d2)
-            Cz += pd * gnorm * e * w[i]
-            gidx[cnt] = i
-            gval[cnt] = e
-            cnt += 1
+        if nbr == 0:
+            r0, r1, nbw = 0, 1, 1
+        else:
+            rz = int(math.floor((zr - rmin) / cwr))
+            r0, r1 = max(rz - 1, 0), min(rz + 2, nbr)
+            bz = int(math.floor((zb + math.pi) / cwb))
+            nbw = 3
+        for rb in range(r0, r1):
+            for u in range(nbw):
+                if nbr == 0:
+                    q0, q1 = 0, L
+                else:
+                    c = rb * nbb + (bz - 1 + u) % nbb
+                    q0, q1 = start[c], start[c + 1]
+                for q in range(q0, q1):
+                    i = q if nbr == 0 else members[q]
+                    dr = zr - H[i, 0]
+                    d2 = dr * dr * i00
+                    if d2 > gate2:
+                        continue
+                    db = zb - H[i, 1]
+                    if not (-math.pi < db <= math.pi):
+                        db = wrap_angle_kernel(db)
+                    d2 += db * db * i11
+                    if d2 > gate2:
+                        continue
+                    e = math.exp(-0.5 * d2)
+                    Cz += pd * gnorm * e * w[i]
+                    gidx[cnt] = i
+                    gval[cnt] = e
+                    cnt += 1
         den = kappa[jj] + Cz
         if Cz <= 0.0:
             continue
@@ -125,7 +203,7 @@ def phd_range_bearing_update_kernel(H, w, Z, kappa, pd, i00, i11, gnorm, gate2, 
 @nb.njit(cache=True)
 def smc_phd_step_kernel(X, w, n, Z, kappa, F, L, ps, birth_mean, birth_L, n_birth, birth_rate,
                         pd, i00, i11, gnorm, gate2, sx, sy, rng, Xout, wout, H, fac, zmass, ridx,
-                        gidx, gval):
+                        gidx, gval, iwork):
     """One SMC-PHD scan (predict, Gaussian birth, update, resample).
 
     ``X`` ``(cap, n_x)`` holds the ``n`` prior particles in its first rows and
@@ -136,7 +214,8 @@ def smc_phd_step_kernel(X, w, n, Z, kappa, F, L, ps, birth_mean, birth_L, n_birt
     (``(n_out, n_x)``) with weights ``N_hat / n_out`` (all 0 and the
     predicted particles in order, cycling, when ``N_hat = 0``).  Work arrays:
     ``H`` ``(cap, 2)``, ``fac`` ``(cap,)``, ``zmass`` ``(m,)``, ``ridx``
-    ``(n_out,)`` int64, ``gidx`` ``(cap,)`` int64, ``gval`` ``(cap,)``.
+    ``(n_out,)`` int64, ``gidx`` ``(cap,)`` int64, ``gval`` ``(cap,)``, ``iwork``
+    (int64, see ``phd_range_bearing_update_kernel``, for ``cap`` particles).
     Returns ``N_hat``."""
     nx = X.shape[1]
     if n > 0:
@@ -155,7 +234,7 @@ def smc_phd_step_kernel(X, w, n, Z, kappa, F, L, ps, birth_mean, birth_L, n_birt
     Lt = n + n_birth
     range_bearing_kernel(X[:Lt], sx, sy, H[:Lt])
     Nhat = phd_range_bearing_update_kernel(H[:Lt], w[:Lt], Z, kappa, pd, i00, i11, gnorm,
-                                           gate2, fac[:Lt], zmass, gidx, gval)
+                                           gate2, fac[:Lt], zmass, gidx, gval, iwork)
     n_out = wout.shape[0]
     if Nhat > 0.0:
         systematic_indices_kernel(w[:Lt], rng.random(), ridx)
@@ -193,6 +272,7 @@ def _filter_kernel(X0, w0, Z, off, kappa_const, F, L, ps, birth_mean, birth_L, n
     ridx = np.zeros(n_out, dtype=np.int64)
     gidx = np.zeros(cap, dtype=np.int64)
     gval = np.zeros(cap)
+    iwork = np.zeros(2 * cap + 2 * (max(64, 4 * cap) + 1), dtype=np.int64)
     K = off.shape[0] - 1
     mmax = 0
     for k in range(K):
@@ -205,7 +285,7 @@ def _filter_kernel(X0, w0, Z, off, kappa_const, F, L, ps, birth_mean, birth_L, n
         card[k] = smc_phd_step_kernel(X, w, n, Z[a0:a1], kappa[:m], F, L, ps, birth_mean,
                                       birth_L, n_birth, birth_rate, pd, i00, i11, gnorm, gate2,
                                       sx, sy, rng, Xo[:n_out], wo[:n_out], H, fac, zmass[:m],
-                                      ridx, gidx, gval)
+                                      ridx, gidx, gval, iwork)
         X, Xo = Xo, X
         w, wo = wo, w
         n = n_out
@@ -375,14 +455,76 @@ def smc_phd_update(particles, w, z, R, pd, clutter_intensity, *, sensor=(0.0, 0.
     zmass = np.zeros(m)
     nhat = phd_range_bearing_update_kernel(H, W, Z, kap, pd, *_rb_constants(R), gate2,
                                            np.empty(N), zmass, np.empty(N, dtype=np.int64),
-                                           np.empty(N))
+                                           np.empty(N),
+                                           np.empty(_grid_work_size(N), dtype=np.int64))
     return SmcPhdUpdate(W, float(nhat), zmass)
 
 
+def _model_array(value, name, shape):
+    if (type(value) is not np.ndarray or value.dtype != np.float64 or value.shape != shape
+            or not value.flags.c_contiguous):
+        raise TypeError(f"model.{name} must be a C-contiguous float64 array of shape {shape} "
+                        f"(build the model with smc_phd_model)")
+    if not np.all(np.isfinite(value)):
+        raise ValueError(f"model.{name} must be finite")
+
+
+def _model_scalar(value, name, *, low, high=None, low_open=False):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer,
+                                                                     np.floating)):
+        raise TypeError(f"model.{name} must be a real number, got {type(value).__name__}")
+    v = float(value)
+    ok = (v > low if low_open else v >= low) and (high is None or v <= high)
+    if math.isnan(v) or not ok:
+        rng_ = f"{'(' if low_open else '['}{low}, {high if high is not None else 'inf'}]"
+        raise ValueError(f"model.{name} must lie in {rng_}, got {value}")
+    return v
+
+
 def _check_model(model):
+    """Check every field of ``model`` before a kernel sees it, so that a record changed
+    with ``model._replace(...)`` cannot bypass :func:`smc_phd_model`'s checks."""
     if not isinstance(model, SmcPhdModel):
         raise TypeError(f"model must be an SmcPhdModel (see smc_phd_model), got "
                         f"{type(model).__name__}")
+    F = model.F
+    if type(F) is not np.ndarray or F.ndim != 2:
+        raise TypeError("model.F must be a square 2-D array (build the model with "
+                        "smc_phd_model)")
+    nx = F.shape[0]
+    _model_array(F, "F", (nx, nx))
+    if nx < 2:
+        raise ValueError(f"model.F must be at least 2x2, got {F.shape}")
+    for name in ("L", "birth_L"):
+        v = getattr(model, name)
+        if type(v) is not np.ndarray or v.ndim != 2:
+            raise TypeError(f"model.{name} must be a 2-D array")
+        _model_array(v, name, (nx, v.shape[1]))
+    _model_array(model.R, "R", (2, 2))
+    if model.R[0, 1] != 0.0 or model.R[1, 0] != 0.0 or not (model.R[0, 0] > 0.0
+                                                            and model.R[1, 1] > 0.0):
+        raise ValueError("model.R must be diagonal with positive entries")
+    _model_array(model.birth_mean, "birth_mean", (nx,))
+    _model_scalar(model.pd, "pd", low=0.0, high=1.0, low_open=True)
+    _model_scalar(model.ps, "ps", low=0.0, high=1.0)
+    kap = _model_scalar(model.clutter_intensity, "clutter_intensity", low=0.0, low_open=True)
+    if not math.isfinite(kap):
+        raise ValueError(f"model.clutter_intensity must be finite, got {kap}")
+    nb_ = model.n_birth
+    if isinstance(nb_, (bool, np.bool_)) or not isinstance(nb_, (int, np.integer)):
+        raise TypeError(f"model.n_birth must be an integer, got {nb_!r}")
+    if nb_ < 0:
+        raise ValueError(f"model.n_birth must be >= 0, got {nb_}")
+    br = _model_scalar(model.birth_rate, "birth_rate", low=0.0)
+    if not math.isfinite(br):
+        raise ValueError(f"model.birth_rate must be finite, got {br}")
+    if nb_ == 0 and br > 0:
+        raise ValueError("model.n_birth must be >= 1 when model.birth_rate > 0")
+    sensor = model.sensor
+    if (not isinstance(sensor, tuple) or len(sensor) != 2
+            or not all(isinstance(v, float) and math.isfinite(v) for v in sensor)):
+        raise TypeError("model.sensor must be a tuple of two finite floats")
+    _model_scalar(model.gate, "gate", low=0.0, low_open=True)
     return model
 
 
@@ -425,7 +567,7 @@ def smc_phd_step(particles, w, z, model: SmcPhdModel, rng, *, n_out=None) -> Smc
                                mdl.pd, i00, i11, gnorm, mdl.gate, mdl.sensor[0], mdl.sensor[1],
                                rng, Xo, wo, np.empty((cap, 2)), np.empty(cap), zmass,
                                np.empty(n_out, dtype=np.int64), np.empty(cap, dtype=np.int64),
-                               np.empty(cap))
+                               np.empty(cap), np.empty(_grid_work_size(cap), dtype=np.int64))
     return SmcPhdStep(Xo, wo, float(nhat), zmass)
 
 
