@@ -364,7 +364,7 @@ def test_trial_is_paired_with_the_detection_level_trial():
                            prm, truth, keep=True)
     cfgs = {"I": IntensityTbdConfig(n_particles=100),
             "C": intensity_tracker_config("C", processing_radius=1000.0, n_particles=100)}
-    inten = tbd_intensity_trial(np.random.default_rng(9), cfgs, prm, truth, keep=True)
+    inten = tbd_intensity_trial(np.random.default_rng(9), cfgs, prm, truth, keep=True, nees=True)
     assert np.array_equal(det.x0, inten.x0)
     assert np.array_equal(det.scans.target_snr, inten.target_snr)
     for name in cfgs:

@@ -503,19 +503,24 @@ def test_nees_definition_and_bad_input():
 
 
 def test_run_outcomes():
-    E = np.full((4, 40), 100.0)
-    E[1, 5:20] = 2000.0                 # lost, recovers: transient
+    E = np.full((5, 40), 100.0)
+    E[1, 5:20] = 2000.0                 # lost, back on track: transient
     E[2, 10:] = np.linspace(2000, 9000, 30)   # lost and ends 9 km off: diverged
-    E[3, 39] = 6000.0                   # one bad last scan: not lost, so not diverged
-    lost, div, tr = tbd_run_outcomes(E)
-    np.testing.assert_array_equal(lost, [False, True, True, False])
-    np.testing.assert_array_equal(div, [False, False, True, False])
-    np.testing.assert_array_equal(tr, [False, True, False, False])
+    E[3, 39] = 6000.0                   # one bad last scan: not lost, so nothing else
+    E[4, 10:] = 3000.0                  # lost, still 3 km off at the end: other
+    out = tbd_run_outcomes(E)
+    np.testing.assert_array_equal(out.lost, [False, True, True, False, True])
+    np.testing.assert_array_equal(out.transient, [False, True, False, False, False])
+    np.testing.assert_array_equal(out.diverged, [False, False, True, False, False])
+    np.testing.assert_array_equal(out.other, [False, False, False, False, True])
+    assert np.array_equal(out.transient | out.diverged | out.other, out.lost)
     from trackcore.trackers import tbd_error_summary
     s = tbd_error_summary(E)
-    assert (s.lost, s.diverged, s.transient) == (2, 1, 1)
+    assert (s.lost, s.transient, s.diverged, s.other) == (3, 1, 1, 1)
     with pytest.raises(ValueError, match="errors"):
         tbd_run_outcomes(np.zeros((0, 3)))
+    with pytest.raises(ValueError, match="diverged_at"):
+        tbd_run_outcomes(E, diverged_at=500.0)
     with pytest.raises(TypeError, match="window"):
         tbd_error_summary(E, window=5)
 
@@ -546,3 +551,51 @@ def test_config_validates_every_field():
             TbdTrackerConfig(**{name: float("nan")})
     with pytest.raises(TypeError, match="use_doppler"):
         TbdTrackerConfig(use_doppler="yes")
+
+
+def test_weight_reference_previous_estimate():
+    # scan 0 empty (the estimate stays x0), scan 1 two detections: "previous" measures r_m
+    # and v_m from x0, "prediction" from F x0; the pseudo-measurement (hence NIS) differs
+    truth = straight_track(2, x0=(30e3, 10e3, 5e3, -200.0, 0.0, 0.0))
+    p = np.array([truth[1, :3] + [100.0, 0, 0], truth[1, :3] + [300.0, 50.0, 0]])
+    rr = [radial_velocity(truth[1])] * 2
+    snr = [10.0, 10.0]
+    scans = scans_from_list([(np.zeros((0, 3)), [], []), (p, rr, snr)])
+    Pi = np.diag([50.0 ** 2] * 3 + [1.0] * 3)
+    F = cv_transition(1.0, dim=3)
+    nis = {}
+    for ref, state in (("prediction", truth[1]), ("previous", truth[0])):
+        cfg = TbdTrackerConfig(method="A", sigma_a=0.0, gate=math.inf, weight_reference=ref)
+        res = run_tbd_tracker(scans, truth[0], Pi, np.random.default_rng(0), cfg)
+        pbar, _ = weighted_mean_detection(p, rr, snr, state[:3], radial_velocity(state), 150.0,
+                                          40.0, 1e-6)
+        z = range_azimuth_elevation(pbar) - range_azimuth_elevation(truth[1])
+        z[1] = (z[1] + math.pi) % (2 * math.pi) - math.pi
+        sp = TBD_PSEUDO_SIGMA[2500.0][0]
+        r, _, el = range_azimuth_elevation(pbar)
+        R = np.diag([sp ** 2, sp ** 2 / (r * math.cos(el)) ** 2, sp ** 2 / r ** 2])
+        H = range_azimuth_elevation_jacobian(truth[1])
+        S = H @ F @ Pi @ F.T @ H.T + R
+        assert res.nis[1] == pytest.approx(z @ np.linalg.solve(S, z), rel=1e-9)
+        nis[ref] = res.nis[1]
+        # method B runs with either reading
+        b = run_tbd_tracker(scans, truth[0], Pi, np.random.default_rng(0),
+                            TbdTrackerConfig(method="B", weight_reference=ref, n_particles=50))
+        assert np.all(np.isfinite(b.estimates))
+    assert nis["prediction"] != nis["previous"]
+    with pytest.raises(ValueError, match="weight_reference"):
+        TbdTrackerConfig(weight_reference="estimate")
+
+
+def test_covariances_are_optional_and_change_nothing_else():
+    truth = straight_track(20)
+    scans = clean_scans(truth, np.random.default_rng(17))
+    for method in "BCP":
+        cfg = TbdTrackerConfig(method=method, n_particles=200)
+        a = run_tbd_tracker(scans, truth[0], P0, np.random.default_rng(3), cfg)
+        b = run_tbd_tracker(scans, truth[0], P0, np.random.default_rng(3), cfg,
+                            covariances=False)
+        np.testing.assert_array_equal(a.estimates, b.estimates)
+        assert b.covariances is None and a.covariances.shape == (20, 6, 6)
+    with pytest.raises(TypeError, match="covariances"):
+        run_tbd_tracker(scans, truth[0], P0, np.random.default_rng(3), cfg, covariances="no")

@@ -268,7 +268,8 @@ def test_paired_trial(truth):
     cfgs = {"C": TbdTrackerConfig(method="C", n_particles=50),
             "C-copy": TbdTrackerConfig(method="C", n_particles=50),
             "A": TbdTrackerConfig(method="A")}
-    r = tbd_paired_trial(np.random.default_rng(1), cfgs, TbdRadarParameters(), truth, keep=True)
+    r = tbd_paired_trial(np.random.default_rng(1), cfgs, TbdRadarParameters(), truth, keep=True,
+                         nees_methods=("A", "C"))
     # same method, same configuration -> same filter stream -> identical errors
     np.testing.assert_array_equal(r.errors["C"], r.errors["C-copy"])
     assert r.errors["A"].shape == (250,) and r.scans.n_scans == 250

@@ -526,7 +526,7 @@ class IntensityTrackResult:
 
 @nb.njit(cache=True)
 def _intensity_run_kernel(particles, logw, F, L, key, c0, fp, dr, dth, beta, snr,
-                          resample_below, rng, est, cov, ess, resampled):
+                          resample_below, rng, est, cov, want_cov, ess, resampled):
     N, n = particles.shape
     K = c0.shape[0]
     ll = np.empty(N)
@@ -542,7 +542,7 @@ def _intensity_run_kernel(particles, logw, F, L, key, c0, fp, dr, dth, beta, snr
         intensity_loglr_kernel(particles, key, k, c0[k], fp[k], dr, dth, beta, snr, cells, h,
                                ll)
         _pf_scan_finish(k, particles, logw, ll, True, resample_below, 0.0, rng, w, mean,
-                        ridx, work, est, cov, ess, resampled)
+                        ridx, work, est, cov, want_cov, ess, resampled)
 
 
 def _start(x0, P0):
@@ -551,15 +551,18 @@ def _start(x0, P0):
     return x0, P0
 
 
-def run_intensity_tbd(maps, x0, P0, rng, config=IntensityTbdConfig()):
+def run_intensity_tbd(maps, x0, P0, rng, config=IntensityTbdConfig(), *, covariances=True):
     """Run the raw-intensity TBD particle filter over a whole run of intensity maps.
 
     ``maps``: :class:`IntensityMaps` (``K`` scans); ``x0`` (6,), ``P0`` (6, 6): the initial
     estimate and covariance at scan 0 (particles drawn from ``N(x0, P0)`` with ``rng``);
-    scan 0 is processed without a prediction.  Returns :class:`IntensityTrackResult`.
+    scan 0 is processed without a prediction.  ``covariances=False`` skips the weighted
+    covariance (``covariances`` is then None).  Returns :class:`IntensityTrackResult`.
     """
     if not isinstance(config, IntensityTbdConfig):
         raise TypeError(f"config must be an IntensityTbdConfig, got {type(config).__name__}")
+    if not isinstance(covariances, (bool, np.bool_)):
+        raise TypeError(f"covariances must be a bool, got {type(covariances).__name__}")
     rng = as_rng(rng)
     maps = _as_maps(maps)
     x0, P0 = _start(x0, P0)
@@ -576,8 +579,8 @@ def run_intensity_tbd(maps, x0, P0, rng, config=IntensityTbdConfig()):
     _intensity_run_kernel(particles, logw, F, L, maps.noise_key, maps.footprint_centre,
                           maps.footprint_power, g.range_cell, g.angle_cell, g.psf_width,
                           float(config.design_snr), float(config.resample_threshold * N), rng,
-                          est, cov, ess, resampled)
-    return IntensityTrackResult(est, cov, ess, resampled)
+                          est, cov, bool(covariances), ess, resampled)
+    return IntensityTrackResult(est, cov if covariances else None, ess, resampled)
 
 
 @dataclass(frozen=True)
@@ -593,9 +596,10 @@ class MapTrackResult:
 
 @nb.njit(cache=True)
 def _map_run_kernel(method, particles, logw, F, L, key, c0, fp, dr, dth, tau, log_pfa,
-                    snr_cap, R, inv_r, inv_v, gauss, use_doppler, resample_below, design_snr,
+                    snr_cap, R, inv_r, inv_v, gauss, use_doppler, from_previous, resample_below,
+                    design_snr,
                     log_pd, log_miss, log_rho, rae_density, sig_range, sig_angle, sig_rr,
-                    roughening, rng, est, cov, centers, nproc, ess, resampled):
+                    roughening, rng, est, cov, want_cov, centers, nproc, ess, resampled):
     N = particles.shape[0]
     K = c0.shape[0]
     ll = np.empty(N)
@@ -625,22 +629,26 @@ def _map_run_kernel(method, particles, logw, F, L, key, c0, fp, dr, dth, tau, lo
             # Rician amplitude ratio of the thresholded densities (method P)
             logla[t] = (log_i0_kernel(2.0 * sq * math.sqrt(powr[t])) - design_snr - log_pd
                         - tau)
-        updated = _pf_scan_loglik(method, particles, idx, m, pos, rr, lpd, mean, inv_r,
+        ref = est[k - 1] if (from_previous and k > 0) else mean
+        updated = _pf_scan_loglik(method, particles, idx, m, pos, rr, lpd, ref, inv_r,
                                   inv_v, gauss, use_doppler, logla, log_pd, log_miss, log_rho,
                                   rae_density, sig_range, sig_angle, sig_rr, tmp, pbar, ll)
         _pf_scan_finish(k, particles, logw, ll, updated, resample_below, roughening, rng, w,
-                        mean, ridx, work, est, cov, ess, resampled)
+                        mean, ridx, work, est, cov, want_cov, ess, resampled)
 
 
-def run_tbd_tracker_on_map(maps, x0, P0, rng, config):
+def run_tbd_tracker_on_map(maps, x0, P0, rng, config, *, covariances=True):
     """Run method B, C or P of :func:`~trackcore.trackers.run_tbd_tracker` on detections
     extracted from intensity maps (:func:`intensity_detections` at
     ``config.threshold_db``), scan by scan inside the tracker's own processing window.
 
     The maps carry no Doppler, so ``config`` must have ``sigma_v = sigma_range_rate =
     math.inf`` and ``use_doppler = False`` (build it with :func:`intensity_tracker_config`).
+    ``covariances=False`` skips the weighted covariance (``covariances`` is then None).
     Returns :class:`MapTrackResult`.
     """
+    if not isinstance(covariances, (bool, np.bool_)):
+        raise TypeError(f"covariances must be a bool, got {type(covariances).__name__}")
     if not isinstance(config, TbdTrackerConfig):
         raise TypeError(f"config must be a TbdTrackerConfig, got {type(config).__name__}")
     if config.method not in ("B", "C", "P"):
@@ -673,9 +681,10 @@ def run_tbd_tracker_on_map(maps, x0, P0, rng, config):
                     10.0 ** (config.threshold_db / 10.0), math.log(config.pfa),
                     detection_snr_cap(config.pfa), float(config.processing_radius),
                     _inv(config.sigma_r), _inv(config.sigma_v), config.kernel == "gaussian",
-                    False, float(config.resample_threshold * N), float(config.target_snr),
+                    False, config.weight_reference == "previous",
+                    float(config.resample_threshold * N), float(config.target_snr),
                     log_pd, log_miss, log_rho, config.clutter_density_rae > 0,
                     float(config.sigma_range), float(config.sigma_angle),
                     float(config.sigma_range_rate), float(config.roughening), rng, est, cov,
-                    centers, nproc, ess, resampled)
-    return MapTrackResult(est, cov, centers, nproc, ess, resampled)
+                    bool(covariances), centers, nproc, ess, resampled)
+    return MapTrackResult(est, cov if covariances else None, centers, nproc, ess, resampled)

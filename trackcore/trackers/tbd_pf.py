@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba as nb
 import numpy as np
@@ -60,6 +61,7 @@ __all__ = [
     "TBD_KERNELS",
     "TBD_PSEUDO_COVARIANCES",
     "TBD_PSEUDO_SIGMA",
+    "TBD_WEIGHT_REFERENCES",
     "TbdTrackerConfig",
     "TbdTrackResult",
     "run_tbd_tracker",
@@ -77,6 +79,7 @@ __all__ = [
     "tbd_track_lost",
     "tbd_loss_onset",
     "tbd_run_outcomes",
+    "TbdRunOutcomes",
     "TbdErrorSummary",
     "tbd_error_summary",
 ]
@@ -91,13 +94,18 @@ _LOG_2PI = math.log(2.0 * math.pi)
 TBD_PSEUDO_COVARIANCES = ("calibrated", "spread", "sensor")
 _PSEUDO_CODE = {"calibrated": 0, "spread": 1, "sensor": 2}
 
+#: the state from which eq (10) measures ``r_m`` and ``v_m`` for methods A and B
+#: (:class:`TbdTrackerConfig` ``weight_reference``): the prediction ``ŝ_{k|k-1}`` (default)
+#: or the previous estimate ``ŝ_{k-1|k-1}`` (the paper's words, "이전 추정 좌표")
+TBD_WEIGHT_REFERENCES = ("prediction", "previous")
+
 #: Per-axis standard deviations (position in m, Doppler in m/s) of the pseudo-measurement
 #: ``p̄`` of eqs (10)-(11) on the chapter's scenario, by processing radius (m): the root
 #: mean square of ``p̄`` minus the true position over the approach (scans 0-99, 200 runs)
 #: with the window centred on the truth, from :func:`pseudo_measurement_errors`.  They
 #: are the default covariance of method A (``pseudo_covariance="calibrated"``); the
 #: chapter's tracking notebook recomputes them and asserts these values.
-TBD_PSEUDO_SIGMA = {2500.0: (390.0, 62.0), 1000.0: (196.0, 94.0)}
+TBD_PSEUDO_SIGMA = {2500.0: (387.0, 64.0), 1000.0: (194.0, 94.0)}
 
 
 # =============================================================================== geometry
@@ -415,11 +423,12 @@ def _roughen(particles, K, rng):
 
 
 @nb.njit(cache=True)
-def _pf_scan_loglik(method, particles, idx, m, pos, rr, lpd, mean, inv_r, inv_v, gauss,
+def _pf_scan_loglik(method, particles, idx, m, pos, rr, lpd, ref, inv_r, inv_v, gauss,
                     use_doppler, logla, log_pd, log_miss, log_rho, rae_density, sig_range,
                     sig_angle, sig_rr, tmp, pbar, ll):
     """One scan's log-likelihood of every particle into ``ll`` for methods B, C and P from
-    the ``m`` detections ``idx[:m]`` of ``pos``/``rr`` (``lpd``: their ``log P_D``).
+    the ``m`` detections ``idx[:m]`` of ``pos``/``rr`` (``lpd``: their ``log P_D``); ``ref``
+    is the state that eq (10) measures ``r_m`` and ``v_m`` from (method B).
     Returns False when the scan carries no information (no update)."""
     N = particles.shape[0]
     if m == 0:
@@ -431,8 +440,8 @@ def _pf_scan_loglik(method, particles, idx, m, pos, rr, lpd, mean, inv_r, inv_v,
         _pda_loglik_kernel(particles, idx, m, pos, rr, logla, log_pd, log_miss, log_rho,
                            rae_density, sig_range, sig_angle, sig_rr, tmp, ll)
         return True
-    rr_pred = _radial_velocity(mean[0], mean[1], mean[2], mean[3], mean[4], mean[5])
-    rbar = _weighted_mean_kernel(idx, m, pos, rr, lpd, mean, rr_pred, inv_r, inv_v, gauss,
+    rr_ref = _radial_velocity(ref[0], ref[1], ref[2], ref[3], ref[4], ref[5])
+    rbar = _weighted_mean_kernel(idx, m, pos, rr, lpd, ref, rr_ref, inv_r, inv_v, gauss,
                                  tmp, pbar)
     if math.isnan(rbar):
         return False
@@ -450,9 +459,10 @@ def _pf_scan_loglik(method, particles, idx, m, pos, rr, lpd, mean, inv_r, inv_v,
 
 @nb.njit(cache=True)
 def _pf_scan_finish(k, particles, logw, ll, updated, resample_below, roughening, rng, w,
-                    mean, ridx, work, est, cov, ess, resampled):
-    """SIS update with ``ll`` (if ``updated``), the weighted estimate and covariance of scan
-    ``k``, and systematic resampling below ``resample_below``."""
+                    mean, ridx, work, est, cov, want_cov, ess, resampled):
+    """SIS update with ``ll`` (if ``updated``), the weighted estimate (and, if
+    ``want_cov``, covariance) of scan ``k``, and systematic resampling below
+    ``resample_below``."""
     N, n = particles.shape
     if updated:
         # SIS: multiply by the previous weights; all-zero (underflow) -> keep the old ones
@@ -467,17 +477,19 @@ def _pf_scan_finish(k, particles, logw, ll, updated, resample_below, roughening,
     n_eff = _weighted_state(particles, logw, w, mean)
     for a in range(n):
         est[k, a] = mean[a]
-        for b in range(n):
-            cov[k, a, b] = 0.0
-    for i in range(N):
-        wi = w[i]
+    if want_cov:
         for a in range(n):
-            da = particles[i, a] - mean[a]
-            for b in range(a, n):
-                cov[k, a, b] += wi * da * (particles[i, b] - mean[b])
-    for a in range(n):
-        for b in range(a + 1, n):
-            cov[k, b, a] = cov[k, a, b]
+            for b in range(n):
+                cov[k, a, b] = 0.0
+        for i in range(N):
+            wi = w[i]
+            for a in range(n):
+                da = particles[i, a] - mean[a]
+                for b in range(a, n):
+                    cov[k, a, b] += wi * da * (particles[i, b] - mean[b])
+        for a in range(n):
+            for b in range(a + 1, n):
+                cov[k, b, a] = cov[k, a, b]
     ess[k] = n_eff
     if n_eff < resample_below:
         systematic_resample_kernel(w, rng, ridx)
@@ -496,9 +508,10 @@ def _pf_scan_finish(k, particles, logw, ll, updated, resample_below, roughening,
 
 @nb.njit(cache=True)
 def _pf_run_kernel(method, particles, logw, F, L, pos, rr, snr, log_pfa, snr_cap, logla,
-                   offsets, R, inv_r, inv_v, gauss, use_doppler, resample_below, log_pd,
-                   log_miss, log_rho, rae_density, sig_range, sig_angle, sig_rr, roughening,
-                   rng, est, cov, centers, nproc, processed, ess, resampled):
+                   offsets, R, inv_r, inv_v, gauss, use_doppler, from_previous, resample_below,
+                   log_pd, log_miss, log_rho, rae_density, sig_range, sig_angle, sig_rr,
+                   roughening, rng, est, cov, want_cov, centers, nproc, processed, ess,
+                   resampled):
     N = particles.shape[0]
     K = offsets.shape[0] - 1
     max_m = 0
@@ -523,12 +536,13 @@ def _pf_run_kernel(method, particles, logw, F, L, pos, rr, snr, log_pfa, snr_cap
         m = _window(pos, snr, log_pfa, snr_cap, offsets[k], offsets[k + 1], mean, R, idx,
                     lpd, processed)
         nproc[k] = m
-        updated = _pf_scan_loglik(method, particles, idx, m, pos, rr, lpd, mean, inv_r,
+        ref = est[k - 1] if (from_previous and k > 0) else mean
+        updated = _pf_scan_loglik(method, particles, idx, m, pos, rr, lpd, ref, inv_r,
                                   inv_v, gauss, use_doppler, logla, log_pd, log_miss,
                                   log_rho, rae_density, sig_range, sig_angle, sig_rr, tmp,
                                   pbar, ll)
         _pf_scan_finish(k, particles, logw, ll, updated, resample_below, roughening, rng, w,
-                        mean, ridx, work, est, cov, ess, resampled)
+                        mean, ridx, work, est, cov, want_cov, ess, resampled)
 
 
 @nb.njit(cache=True)
@@ -575,8 +589,8 @@ def _pseudo_covariance_kernel(mode, idx, m, pos, rr, wbar, pbar, rbar, sig_p, si
 
 @nb.njit(cache=True)
 def _ekf_run_kernel(x, P, F, Q, Rsens, mode, sig_p, sig_prr, pos, rr, snr, log_pfa, snr_cap,
-                    offsets, R, inv_r, inv_v, gauss, gate, use_doppler, est, cov, centers,
-                    nproc, processed, accepted, nis_out):
+                    offsets, R, inv_r, inv_v, gauss, gate, use_doppler, from_previous, est, cov,
+                    centers, nproc, processed, accepted, nis_out):
     K = offsets.shape[0] - 1
     nz = 4 if use_doppler else 3
     max_m = 0
@@ -612,8 +626,10 @@ def _ekf_run_kernel(x, P, F, Q, Rsens, mode, sig_p, sig_prr, pos, rr, snr, log_p
         nproc[k] = m
         nis_out[k] = np.nan
         if m > 0:
-            rbar = _weighted_mean_kernel(idx, m, pos, rr, lpd, x, rr_pred, inv_r, inv_v, gauss,
-                                         wbar, pbar)
+            ref = est[k - 1] if (from_previous and k > 0) else x
+            rr_ref = _radial_velocity(ref[0], ref[1], ref[2], ref[3], ref[4], ref[5])
+            rbar = _weighted_mean_kernel(idx, m, pos, rr, lpd, ref, rr_ref, inv_r, inv_v,
+                                         gauss, wbar, pbar)
             if not math.isnan(rbar):
                 r_m, az_m, el_m = _rae(pbar[0], pbar[1], pbar[2])
                 r_p, az_p, el_p = _rae(x[0], x[1], x[2])
@@ -674,6 +690,11 @@ class TbdTrackerConfig:
     detection's noise ``(sigma_range, sigma_angle, sigma_angle[, sigma_range_rate])``,
     the literal reading (ablation).
 
+    ``weight_reference`` (methods A and B): the state from which eq (10) measures each
+    detection's distance ``r_m`` and Doppler difference ``v_m``, ``"prediction"`` (default)
+    or ``"previous"`` (the previous estimate, the paper's words; ablation).  The
+    processing window is always centred on the prediction.
+
     ``use_doppler``: give (A)/(B) the weighted-mean Doppler too (ablation).  ``kernel``:
     ``"laplace"`` (the paper's ``exp(-d/σ)``) or ``"gaussian"`` (``exp(-d²/(2σ²))``,
     ablation).  ``sigma_v = math.inf``: the detections carry no Doppler (the Doppler
@@ -694,6 +715,7 @@ class TbdTrackerConfig:
     """
     method: str = "C"
     n_particles: int = 600
+    weight_reference: str = "prediction"
     processing_radius: float = 2500.0
     sigma_r: float = 150.0
     sigma_v: float = 40.0
@@ -721,6 +743,9 @@ class TbdTrackerConfig:
             raise ValueError(f"method must be one of {TBD_METHODS}, got {self.method!r}")
         if self.kernel not in TBD_KERNELS:
             raise ValueError(f"kernel must be one of {TBD_KERNELS}, got {self.kernel!r}")
+        if self.weight_reference not in TBD_WEIGHT_REFERENCES:
+            raise ValueError(f"weight_reference must be one of {TBD_WEIGHT_REFERENCES}, "
+                             f"got {self.weight_reference!r}")
         if self.pseudo_covariance not in TBD_PSEUDO_COVARIANCES:
             raise ValueError(f"pseudo_covariance must be one of {TBD_PSEUDO_COVARIANCES}, "
                              f"got {self.pseudo_covariance!r}")
@@ -768,6 +793,7 @@ class TbdTrackResult:
     """Output of :func:`run_tbd_tracker` over ``K`` scans with ``M`` detections in total."""
     estimates: np.ndarray   # (K, 6) posterior estimates [x, y, z, vx, vy, vz]
     covariances: np.ndarray  # (K, 6, 6) EKF covariance (A) or weighted particle covariance
+    #                          (None for a particle filter run with covariances=False)
     window_centers: np.ndarray  # (K, 3) predicted position: centre of the processing sphere
     n_processed: np.ndarray  # (K,) detections inside the processing sphere
     processed: np.ndarray   # (M,) bool: detection was inside the sphere of its scan
@@ -828,7 +854,7 @@ def _log_clutter(config):
                     else config.clutter_density)
 
 
-def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig()):
+def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig(), *, covariances=True):
     """Run one TBD tracker over a whole scenario run.
 
     ``scans``: an object with ``positions (M, 3)``, ``range_rate (M,)``, ``snr (M,)``
@@ -837,8 +863,14 @@ def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig()):
     ``x0``, ``P0``: the initial estimate and covariance at scan 0 (the EKF starts there;
     the particles are drawn from ``N(x0, P0)`` with ``rng``).  Scan 0 is processed without
     a prediction; every later scan is predicted over ``config.scan_period``.
-    Returns :class:`TbdTrackResult`.
+    ``covariances=False`` skips the particle filters' weighted covariance (about a sixth
+    of their cost; ``TbdTrackResult.covariances`` is then None); method A's EKF
+    covariance is always returned.  Returns :class:`TbdTrackResult`.
     """
+    if not isinstance(config, TbdTrackerConfig):
+        raise TypeError(f"config must be a TbdTrackerConfig, got {type(config).__name__}")
+    if not isinstance(covariances, (bool, np.bool_)):
+        raise TypeError(f"covariances must be a bool, got {type(covariances).__name__}")
     if not isinstance(config, TbdTrackerConfig):
         raise TypeError(f"config must be a TbdTrackerConfig, got {type(config).__name__}")
     rng = as_rng(rng)
@@ -871,7 +903,8 @@ def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig()):
         _ekf_run_kernel(x, P, F, Q, Rsens, _PSEUDO_CODE[config.pseudo_covariance], sp, sr,
                         pos, rr, snr, log_pfa, cap, off, float(config.processing_radius),
                         inv_r, inv_v, gauss, float(config.gate), bool(config.use_doppler),
-                        est, cov, centers, nproc, processed, accepted, nis)
+                        config.weight_reference == "previous", est, cov, centers, nproc,
+                        processed, accepted, nis)
         ess = np.full(K, np.nan)
     else:
         particles, logw, F, L = _pf_setup(x0, P0, rng, config)
@@ -884,12 +917,14 @@ def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig()):
         ess = np.empty(K)
         _pf_run_kernel(_CODE[config.method], particles, logw, F, L, pos, rr, snr, log_pfa,
                        cap, logla, off, float(config.processing_radius), inv_r, inv_v,
-                       gauss, bool(config.use_doppler),
+                       gauss, bool(config.use_doppler), config.weight_reference == "previous",
                        float(config.resample_threshold * N), log_pd, log_miss, log_rho,
                        config.clutter_density_rae > 0, float(config.sigma_range),
                        float(config.sigma_angle), float(config.sigma_range_rate),
-                       float(config.roughening), rng, est, cov, centers, nproc, processed,
-                       ess, resampled)
+                       float(config.roughening), rng, est, cov, bool(covariances), centers,
+                       nproc, processed, ess, resampled)
+        if not covariances:
+            cov = None
     return TbdTrackResult(est, cov, centers, nproc, processed, ess, resampled, accepted, nis)
 
 
@@ -1109,21 +1144,36 @@ def tbd_track_lost(errors, threshold=1000.0, consecutive=10):
     return tbd_loss_onset(errors, threshold, consecutive) >= 0
 
 
-def tbd_run_outcomes(errors, diverged_at=5000.0):
-    """Classify runs ``errors (runs, K)``: ``(lost, diverged, transient)`` boolean arrays.
+class TbdRunOutcomes(NamedTuple):
+    """Per-run outcomes of :func:`tbd_run_outcomes` (boolean arrays, one entry per run)."""
+    lost: np.ndarray       # E_err > 1 km for >= 10 consecutive scans
+    transient: np.ndarray  # lost, and back within 1 km for the last 10 scans
+    diverged: np.ndarray   # lost, and the final error exceeds 5 km
+    other: np.ndarray      # lost, neither back on track nor 5 km off at the end
 
-    *lost*: ``E_err > 1`` km for at least 10 consecutive scans (:func:`tbd_track_lost`);
-    *diverged*: the final error exceeds ``diverged_at`` (default 5 km); *transient*: lost
-    but not diverged (the track came back).  A run that is not lost never counts as
-    diverged: its final error would have had to jump from below 1 km.
+
+def tbd_run_outcomes(errors, threshold=1000.0, consecutive=10, diverged_at=5000.0):
+    """Classify runs ``errors (runs, K)`` into a :class:`TbdRunOutcomes`.
+
+    *lost*: ``E_err > threshold`` for at least ``consecutive`` scans in a row
+    (:func:`tbd_track_lost`); a lost run is *transient* if its last ``consecutive`` errors
+    are all within ``threshold`` (the track came back), *diverged* if its final error
+    exceeds ``diverged_at`` (default 5 km), and *other* otherwise (still lost at the end,
+    but closer than ``diverged_at``).  The three classes partition the lost runs.
     """
     E = as_array(errors, "errors", ndim=2)
     if E.shape[0] == 0 or E.shape[1] == 0:
         raise ValueError("errors must hold at least one run of at least one scan")
+    threshold = as_positive(threshold, "threshold")
+    consecutive = as_int(consecutive, "consecutive", minimum=1)
     diverged_at = as_positive(diverged_at, "diverged_at")
-    lost = np.array([tbd_track_lost(e) for e in E])
-    diverged = lost & (E[:, -1] > diverged_at)
-    return lost, diverged, lost & ~diverged
+    if diverged_at < threshold:
+        raise ValueError(f"diverged_at ({diverged_at}) must be >= threshold ({threshold})")
+    lost = np.array([tbd_track_lost(e, threshold, consecutive) for e in E])
+    back = np.all(E[:, -consecutive:] <= threshold, axis=1)
+    transient = lost & back
+    diverged = lost & ~back & (E[:, -1] > diverged_at)
+    return TbdRunOutcomes(lost, transient, diverged, lost & ~transient & ~diverged)
 
 
 @dataclass(frozen=True)
@@ -1136,7 +1186,8 @@ class TbdErrorSummary:
     beyond_sim: int        # runs whose error ever exceeded the 5-km simulation margin
     per_run: np.ndarray    # (runs,) per-run window means
     diverged: int = 0      # lost runs whose final error exceeds 5 km
-    transient: int = 0     # lost runs that came back (final error <= 5 km)
+    transient: int = 0     # lost runs back within 1 km for the last 10 scans
+    other: int = 0         # lost runs neither back nor 5 km off at the end
     lost_mask: np.ndarray | None = None  # (runs,) bool
 
 
@@ -1144,8 +1195,8 @@ def tbd_error_summary(errors, window=None, sim_margin=5000.0):
     """Summarise ``errors (runs, K)`` over ``window`` (a slice of scans, default all).
 
     Lost runs stay in ``mean`` (as in the paper's metric) and are counted in ``lost``,
-    split into ``diverged`` and ``transient`` (:func:`tbd_run_outcomes`, over the whole
-    run); ``mean_not_lost`` excludes them.  ``beyond_sim`` counts runs that left the
+    split into ``transient``, ``diverged`` and ``other`` (:func:`tbd_run_outcomes`, over
+    the whole run); ``mean_not_lost`` excludes them.  ``beyond_sim`` counts runs that left the
     sphere in which the clutter was simulated (their later errors are not representative).
     """
     E = as_array(errors, "errors", ndim=2)
@@ -1158,9 +1209,11 @@ def tbd_error_summary(errors, window=None, sim_margin=5000.0):
     if E[:, sl].shape[1] == 0:
         raise ValueError("window selects no scan")
     per_run = E[:, sl].mean(axis=1)
-    lost, diverged, transient = tbd_run_outcomes(E)
-    keep = ~lost
-    return TbdErrorSummary(float(per_run.mean()), float(np.median(per_run)), int(lost.sum()),
+    out = tbd_run_outcomes(E)
+    keep = ~out.lost
+    return TbdErrorSummary(float(per_run.mean()), float(np.median(per_run)),
+                           int(out.lost.sum()),
                            float(per_run[keep].mean()) if keep.any() else float("nan"),
                            int(np.sum(np.max(E, axis=1) > sim_margin)), per_run,
-                           int(diverged.sum()), int(transient.sum()), lost)
+                           int(out.diverged.sum()), int(out.transient.sum()),
+                           int(out.other.sum()), out.lost)
