@@ -599,3 +599,24 @@ def test_covariances_are_optional_and_change_nothing_else():
         assert b.covariances is None and a.covariances.shape == (20, 6, 6)
     with pytest.raises(TypeError, match="covariances"):
         run_tbd_tracker(scans, truth[0], P0, np.random.default_rng(3), cfg, covariances="no")
+
+
+def test_log_pd_cache_is_shared_and_changes_nothing():
+    truth = tbd_radar_truth(TbdRadarParameters(n_scans=30))
+    sc = simulate_tbd_radar(truth, TbdRadarParameters(n_scans=30), np.random.default_rng(18))
+    M = sc.positions.shape[0]
+    cache = np.full(M, np.nan)
+    for method in "ABC":
+        cfg = TbdTrackerConfig(method=method, n_particles=200)
+        a = run_tbd_tracker(sc, truth.states[0], P0, np.random.default_rng(4), cfg)
+        b = run_tbd_tracker(sc, truth.states[0], P0, np.random.default_rng(4), cfg,
+                            log_pd_cache=cache)
+        np.testing.assert_array_equal(a.estimates, b.estimates)
+    # every processed detection was evaluated once, with eq (9) itself
+    done = np.isfinite(cache)
+    assert done.any() and not done.all()
+    np.testing.assert_array_equal(
+        cache[done], log_marcum_detection_probability(sc.snr[done], 1e-6))
+    with pytest.raises(ValueError, match="log_pd_cache"):
+        run_tbd_tracker(sc, truth.states[0], P0, np.random.default_rng(4),
+                        TbdTrackerConfig(), log_pd_cache=np.zeros(3))

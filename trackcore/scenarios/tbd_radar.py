@@ -429,10 +429,12 @@ def tbd_paired_trial(rng, configs, params=TbdRadarParameters(), truth=None,
     x0 = truth.states[0] + np.linalg.cholesky(P0) @ r_scene.standard_normal(6)
     seeds = r_filter.bit_generator.seed_seq.spawn(len(TBD_METHODS))
     errors, nproc, nees, tracks = {}, {}, {}, {}
+    caches = {}  # log P_D of eq (9) per detection, shared by trackers with the same P_fa
     for name, cfg in configs.items():
         g = np.random.default_rng(seeds[TBD_METHODS.index(cfg.method)])
         want = cfg.method in nees_methods
-        res = run_tbd_tracker(scans, x0, P0, g, cfg, covariances=want)
+        cache = caches.setdefault(cfg.pfa, np.full(scans.positions.shape[0], np.nan))
+        res = run_tbd_tracker(scans, x0, P0, g, cfg, covariances=want, log_pd_cache=cache)
         errors[name] = tbd_position_errors(res.estimates, truth.states)
         nproc[name] = res.n_processed
         if want:

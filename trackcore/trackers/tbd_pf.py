@@ -362,18 +362,21 @@ def _pda_loglik_kernel(particles, idx, m, pos, rr, logla, log_pd, log_miss, log_
 
 # =============================================================================== run kernels
 @nb.njit(cache=True)
-def _window(pos, snr, log_pfa, snr_cap, lo, hi, p, R, idx, lpd, processed):
+def _window(pos, snr, log_pfa, snr_cap, lo, hi, p, R, idx, lpd, processed, cache):
     """Detections of rows ``lo:hi`` within ``R`` of ``p``: indices into ``idx`` and their
     ``log P_D`` (eq 9 at ``min(ζ, snr_cap)``, evaluated only for the detections that are
-    processed) into ``lpd``."""
+    processed) into ``lpd``.  ``cache`` (M,) holds the values already evaluated (NaN:
+    not yet) and receives the new ones."""
     m = 0
     R2 = R * R
     for j in range(lo, hi):
         d2 = (pos[j, 0] - p[0]) ** 2 + (pos[j, 1] - p[1]) ** 2 + (pos[j, 2] - p[2]) ** 2
         if d2 <= R2:
             idx[m] = j
-            lpd[m] = log_marcum_detection_probability_scalar_kernel(min(snr[j], snr_cap),
-                                                                    log_pfa)
+            if math.isnan(cache[j]):
+                cache[j] = log_marcum_detection_probability_scalar_kernel(
+                    min(snr[j], snr_cap), log_pfa)
+            lpd[m] = cache[j]
             processed[j] = True
             m += 1
     return m
@@ -507,7 +510,7 @@ def _pf_scan_finish(k, particles, logw, ll, updated, resample_below, roughening,
 
 
 @nb.njit(cache=True)
-def _pf_run_kernel(method, particles, logw, F, L, pos, rr, snr, log_pfa, snr_cap, logla,
+def _pf_run_kernel(method, particles, logw, F, L, pos, rr, snr, log_pfa, snr_cap, cache, logla,
                    offsets, R, inv_r, inv_v, gauss, use_doppler, from_previous, resample_below,
                    log_pd, log_miss, log_rho, rae_density, sig_range, sig_angle, sig_rr,
                    roughening, rng, est, cov, want_cov, centers, nproc, processed, ess,
@@ -534,7 +537,7 @@ def _pf_run_kernel(method, particles, logw, F, L, pos, rr, snr, log_pfa, snr_cap
         for a in range(3):
             centers[k, a] = mean[a]
         m = _window(pos, snr, log_pfa, snr_cap, offsets[k], offsets[k + 1], mean, R, idx,
-                    lpd, processed)
+                    lpd, processed, cache)
         nproc[k] = m
         ref = est[k - 1] if (from_previous and k > 0) else mean
         updated = _pf_scan_loglik(method, particles, idx, m, pos, rr, lpd, ref, inv_r,
@@ -589,7 +592,7 @@ def _pseudo_covariance_kernel(mode, idx, m, pos, rr, wbar, pbar, rbar, sig_p, si
 
 @nb.njit(cache=True)
 def _ekf_run_kernel(x, P, F, Q, Rsens, mode, sig_p, sig_prr, pos, rr, snr, log_pfa, snr_cap,
-                    offsets, R, inv_r, inv_v, gauss, gate, use_doppler, from_previous, est, cov,
+                    cache, offsets, R, inv_r, inv_v, gauss, gate, use_doppler, from_previous, est, cov,
                     centers, nproc, processed, accepted, nis_out):
     K = offsets.shape[0] - 1
     nz = 4 if use_doppler else 3
@@ -622,7 +625,7 @@ def _ekf_run_kernel(x, P, F, Q, Rsens, mode, sig_p, sig_prr, pos, rr, snr, log_p
         for a in range(3):
             centers[k, a] = x[a]
         m = _window(pos, snr, log_pfa, snr_cap, offsets[k], offsets[k + 1], x, R, idx, lpd,
-                    processed)
+                    processed, cache)
         nproc[k] = m
         nis_out[k] = np.nan
         if m > 0:
@@ -854,7 +857,8 @@ def _log_clutter(config):
                     else config.clutter_density)
 
 
-def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig(), *, covariances=True):
+def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig(), *, covariances=True,
+                    log_pd_cache=None):
     """Run one TBD tracker over a whole scenario run.
 
     ``scans``: an object with ``positions (M, 3)``, ``range_rate (M,)``, ``snr (M,)``
@@ -865,7 +869,11 @@ def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig(), *, covariance
     a prediction; every later scan is predicted over ``config.scan_period``.
     ``covariances=False`` skips the particle filters' weighted covariance (about a sixth
     of their cost; ``TbdTrackResult.covariances`` is then None); method A's EKF
-    covariance is always returned.  Returns :class:`TbdTrackResult`.
+    covariance is always returned.  ``log_pd_cache``: an optional float array (M,) shared
+    by trackers that run on the same ``scans`` with the same ``config.pfa``; NaN entries
+    are evaluated when a detection is first processed and stored, so eq (9) is evaluated
+    once per detection however many trackers see it (the results do not change).
+    Returns :class:`TbdTrackResult`.
     """
     if not isinstance(config, TbdTrackerConfig):
         raise TypeError(f"config must be a TbdTrackerConfig, got {type(config).__name__}")
@@ -881,6 +889,16 @@ def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig(), *, covariance
     M = pos.shape[0]
     log_pfa = math.log(config.pfa)
     cap = detection_snr_cap(config.pfa)
+    if log_pd_cache is None:
+        cache = np.full(max(M, 1), np.nan)
+    else:
+        cache = log_pd_cache
+        if not (isinstance(cache, np.ndarray) and cache.dtype == np.float64
+                and cache.shape == (M,) and cache.flags.c_contiguous):
+            raise ValueError(f"log_pd_cache must be a contiguous float64 array of shape "
+                             f"({M},) (one entry per detection)")
+        if M == 0:
+            cache = np.full(1, np.nan)
     est = np.empty((K, 6))
     cov = np.empty((K, 6, 6))
     centers = np.empty((K, 3))
@@ -901,7 +919,8 @@ def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig(), *, covariance
         x = x0.copy()
         P = P0.copy()
         _ekf_run_kernel(x, P, F, Q, Rsens, _PSEUDO_CODE[config.pseudo_covariance], sp, sr,
-                        pos, rr, snr, log_pfa, cap, off, float(config.processing_radius),
+                        pos, rr, snr, log_pfa, cap, cache, off,
+                        float(config.processing_radius),
                         inv_r, inv_v, gauss, float(config.gate), bool(config.use_doppler),
                         config.weight_reference == "previous", est, cov, centers, nproc,
                         processed, accepted, nis)
@@ -916,7 +935,7 @@ def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig(), *, covariance
             log_pd, log_miss, logla = _pda_terms(config, snr)
         ess = np.empty(K)
         _pf_run_kernel(_CODE[config.method], particles, logw, F, L, pos, rr, snr, log_pfa,
-                       cap, logla, off, float(config.processing_radius), inv_r, inv_v,
+                       cap, cache, logla, off, float(config.processing_radius), inv_r, inv_v,
                        gauss, bool(config.use_doppler), config.weight_reference == "previous",
                        float(config.resample_threshold * N), log_pd, log_miss, log_rho,
                        config.clutter_density_rae > 0, float(config.sigma_range),
@@ -1024,6 +1043,7 @@ def pseudo_measurement_errors(scans, truth, config=TbdTrackerConfig(method="A"))
 @nb.njit(cache=True)
 def _pseudo_errors_kernel(pos, rr, snr, log_pfa, snr_cap, offsets, truth, R, inv_r, inv_v,
                           gauss, dp, dv):
+    cache = np.full(max(pos.shape[0], 1), np.nan)
     K = offsets.shape[0] - 1
     M = pos.shape[0]
     n = max(M, 1)
@@ -1035,7 +1055,7 @@ def _pseudo_errors_kernel(pos, rr, snr, log_pfa, snr_cap, offsets, truth, R, inv
     for k in range(K):
         p = truth[k, :3]
         m = _window(pos, snr, log_pfa, snr_cap, offsets[k], offsets[k + 1], p, R, idx, lpd,
-                    processed)
+                    processed, cache)
         if m == 0:
             continue
         rr_true = _radial_velocity(truth[k, 0], truth[k, 1], truth[k, 2], truth[k, 3],
