@@ -378,3 +378,17 @@ def test_trial_is_paired_with_the_detection_level_trial():
                             truth)
     with pytest.raises(TypeError, match="configs"):
         tbd_intensity_trial(np.random.default_rng(9), {}, prm, truth)
+
+
+def test_huge_inputs_are_rejected():
+    maps = simulate_intensity_maps(straight_track(3)[:, :3], np.ones(3), GRID,
+                                   np.random.default_rng(0))
+    with pytest.raises(ValueError, match="radius"):
+        intensity_detections(maps, 0, straight_track(3)[0, :3], 1e7, 5.0)
+    with pytest.raises(ValueError, match="block"):
+        maps.block(0, 10_000, 1000)
+    with pytest.raises(ValueError, match="positions"):
+        simulate_intensity_maps(np.full((2, 3), 1e300), np.ones(2), GRID,
+                                np.random.default_rng(0))
+    with pytest.raises(ValueError, match="particles"):
+        intensity_log_likelihood_ratio(np.full((2, 3), 1e300), maps, 0, 1.0)

@@ -83,8 +83,10 @@ def test_weighted_mean_formula():
     assert rbar == pytest.approx(w @ rr, rel=1e-12)
     # m = 0: no pseudo-measurement; all weights underflowing: none either
     assert weighted_mean_detection(np.zeros((0, 3)), [], [], ref, 0.0, 150.0, 40.0, 1e-6) == (None, None)
-    far = np.array([[1e306, 0.0, 0.0]])
-    assert weighted_mean_detection(far, [0.0], [5.0], ref, 0.0, 1e-3, 40.0, 1e-6) == (None, None)
+    far = np.array([[1e11, 0.0, 0.0]])
+    assert weighted_mean_detection(far, [0.0], [5.0], ref, 0.0, 1e-300, 40.0, 1e-6) == (None, None)
+    with pytest.raises(ValueError, match="positions"):
+        weighted_mean_detection(far * 1e290, [0.0], [5.0], ref, 0.0, 1.0, 40.0, 1e-6)
 
 
 def test_direct_weights_match_brute_force():
@@ -620,3 +622,20 @@ def test_log_pd_cache_is_shared_and_changes_nothing():
     with pytest.raises(ValueError, match="log_pd_cache"):
         run_tbd_tracker(sc, truth.states[0], P0, np.random.default_rng(4),
                         TbdTrackerConfig(), log_pd_cache=np.zeros(3))
+
+
+def test_huge_finite_inputs_are_rejected_not_overflowed():
+    big = np.array([1e300, 0, 0, 0, 0, 0.0])
+    for f, args in ((range_azimuth_elevation, (big,)), (radial_velocity, (big,)),
+                    (range_azimuth_elevation_jacobian, (big,)),
+                    (tbd_position_errors, (big[None], np.zeros((1, 6))))):
+        with pytest.raises(ValueError):
+            f(*args)
+    truth = straight_track(3)
+    scans = clean_scans(truth, np.random.default_rng(0))
+    with pytest.raises(ValueError, match="x0"):
+        run_tbd_tracker(scans, big, P0, np.random.default_rng(0))
+    with pytest.raises(ValueError, match="P0"):
+        run_tbd_tracker(scans, truth[0], P0 * 1e290, np.random.default_rng(0))
+    with pytest.raises(ValueError, match="particles"):
+        direct_particle_log_weights(big[None], [[1.0, 2.0, 3.0]], [0.0], [3.0], 1.0, 1.0, 1e-6)

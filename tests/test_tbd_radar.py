@@ -135,6 +135,10 @@ def test_clutter_bad_input():
         sample_clutter(np.zeros((3, 3)), 1.0, 1.0, -1.0, 1.0, rng)
     with pytest.raises(TypeError, match="rng"):
         sample_clutter(np.zeros((3, 3)), 1.0, 1.0, 1.0, 1.0, 42)
+    with pytest.raises(ValueError, match="false alarms"):
+        sample_clutter(np.zeros((3, 3)), 1e9, 1.0, 1.0, 1.0, rng)
+    with pytest.raises(ValueError, match="centers"):
+        sample_clutter(np.full((3, 3), 1e300), 1.0, 1.0, 1.0, 1.0, rng)
     pos, rdot, zeta, counts = sample_clutter(np.zeros((0, 3)), 1.0, 1.0, 1.0, 1.0, rng)
     assert pos.shape == (0, 3) and counts.shape == (0,)
 

@@ -31,7 +31,7 @@ from ..core.validation import as_array, as_covariance, as_rng
 from ..trackers.tbd_intensity_pf import (INTENSITY_FOOTPRINT, IntensityGrid, IntensityMaps,
                                          IntensityTbdConfig, psf_footprint_kernel,
                                          run_intensity_tbd, run_tbd_tracker_on_map)
-from ..trackers.tbd_pf import TbdTrackerConfig, tbd_nees, tbd_position_errors
+from ..trackers.tbd_pf import _bounded, TbdTrackerConfig, tbd_nees, tbd_position_errors
 from .tbd_radar import (TBD_INITIAL_COVARIANCE, TbdRadarParameters, TbdRadarTruth,
                         simulate_tbd_radar, tbd_radar_truth)
 
@@ -74,7 +74,7 @@ def simulate_intensity_maps(positions, snr, grid=IntensityGrid(), rng=None):
     if not isinstance(grid, IntensityGrid):
         raise TypeError(f"grid must be an IntensityGrid, got {type(grid).__name__}")
     rng = as_rng(rng)
-    P = as_array(positions, "positions", ndim=2)
+    P = _bounded(as_array(positions, "positions", ndim=2), "positions")
     if P.shape[1] < 3:
         raise ValueError(f"positions must have shape (K, >=3), got {P.shape}")
     K = P.shape[0]

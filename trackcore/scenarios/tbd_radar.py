@@ -41,8 +41,9 @@ import numpy as np
 
 from ..core.validation import (as_array, as_count, as_covariance, as_int, as_nonnegative,
                                as_positive, as_rng, as_scalar)
-from ..trackers.tbd_pf import (TBD_METHODS, TbdTrackerConfig, run_tbd_tracker,
-                               spherical_to_cartesian, tbd_nees, tbd_position_errors)
+from ..trackers.tbd_pf import (_COV_LIMIT, _LIMIT, TBD_METHODS, TbdTrackerConfig, _bounded,
+                               run_tbd_tracker, spherical_to_cartesian, tbd_nees,
+                               tbd_position_errors)
 
 __all__ = [
     "SPEED_OF_LIGHT",
@@ -227,13 +228,15 @@ def radar_equation_snr(rcs_m2, range_m, pt_tau, params=TbdRadarParameters()):
     """
     if not isinstance(params, TbdRadarParameters):
         raise TypeError(f"params must be TbdRadarParameters, got {type(params).__name__}")
-    rcs = as_array(rcs_m2, "rcs_m2")
-    rng_m = as_array(range_m, "range_m")
+    rcs = _bounded(as_array(rcs_m2, "rcs_m2"), "rcs_m2")
+    rng_m = _bounded(as_array(range_m, "range_m"), "range_m")
     if np.any(rcs < 0):
         raise ValueError("rcs_m2 must be >= 0 (a radar cross-section in m², not dBsm)")
     if np.any(rng_m <= 0):
         raise ValueError("range_m must be > 0")
     pt_tau = as_positive(pt_tau, "pt_tau")
+    if pt_tau > _LIMIT:
+        raise ValueError(f"pt_tau must be at most {_LIMIT:.0e} J, got {pt_tau:.3g}")
     try:
         np.broadcast_shapes(rcs.shape, rng_m.shape)
     except ValueError:
@@ -279,7 +282,7 @@ def sample_clutter(centers, radius, threshold, density_per_km3, doppler_max, rng
     Returns ``(positions (M, 3), range_rate (M,), zeta (M,), counts (K,))`` in sphere order.
     """
     rng = as_rng(rng)
-    C = as_array(centers, "centers", ndim=2)
+    C = _bounded(as_array(centers, "centers", ndim=2), "centers")
     if C.shape[1] != 3:
         raise ValueError(f"centers must have shape (K, 3), got {C.shape}")
     radius = as_positive(radius, "radius")
@@ -291,6 +294,9 @@ def sample_clutter(centers, radius, threshold, density_per_km3, doppler_max, rng
     doppler_max = as_positive(doppler_max, "doppler_max")
     volume_km3 = 4.0 / 3.0 * math.pi * (radius / 1000.0) ** 3
     mean = density_per_km3 * math.exp(-threshold) * volume_km3
+    if not mean * C.shape[0] <= 1e8:
+        raise ValueError(f"about {mean * C.shape[0]:.3g} false alarms to draw: reduce "
+                         f"radius, density_per_km3 or the number of centers (at most 1e8)")
     counts = rng.poisson(mean, size=C.shape[0])
     M = int(counts.sum())
     u = rng.standard_normal((M, 3))
@@ -420,7 +426,7 @@ def tbd_paired_trial(rng, configs, params=TbdRadarParameters(), truth=None,
         truth = tbd_radar_truth(params)
     if not isinstance(truth, TbdRadarTruth):
         raise TypeError(f"truth must be TbdRadarTruth, got {type(truth).__name__}")
-    P0 = as_covariance(P0, "P0", 6, strict=True)
+    P0 = _bounded(as_covariance(P0, "P0", 6, strict=True), "P0", _COV_LIMIT)
     if isinstance(nees_methods, str) or not all(m in TBD_METHODS for m in nees_methods):
         raise ValueError(f"nees_methods must be a sequence of letters from {TBD_METHODS}, "
                          f"got {nees_methods!r}")

@@ -63,9 +63,13 @@ from ..core.validation import (as_array, as_covariance, as_int, as_nonnegative, 
                                as_probability, as_rng, as_scalar, as_vector)
 from ..detection.marcum import log_marcum_detection_probability_scalar_kernel
 from ..filters.particle import propagate_linear_kernel
-from .tbd_pf import (TbdTrackerConfig, _CODE, _inv, _log_clutter, _pda_terms,
-                     _pf_scan_finish, _pf_scan_loglik, _pf_setup, _rae, _weighted_state,
-                     detection_snr_cap)
+from .tbd_pf import (_COV_LIMIT, _CODE, TbdTrackerConfig, _bounded, _inv, _log_clutter,
+                     _pda_terms, _pf_scan_finish, _pf_scan_loglik, _pf_setup, _rae,
+                     _weighted_state, detection_snr_cap)
+
+#: the most cells one scan's detection extraction may examine (a window of radius R
+#: around a point at range r spans about (2R/Δr)(2R/(rΔθ))² cells)
+_MAX_WINDOW_CELLS = 2_000_000
 
 __all__ = [
     "IntensityGrid",
@@ -243,6 +247,9 @@ class IntensityMaps:
                                                                      minimum=0)
         ha = self.grid.half_angle if half_angle is None else as_int(half_angle, "half_angle",
                                                                      minimum=0)
+        if (2 * hr + 1) * (2 * ha + 1) ** 2 > _MAX_WINDOW_CELLS:
+            raise ValueError(f"a block of half-sizes {hr} (range) and {ha} (angle) exceeds "
+                             f"{_MAX_WINDOW_CELLS} cells")
         origin = self.footprint_centre[k] - np.array([hr, ha, ha], dtype=np.int64)
         out = np.empty((2 * hr + 1, 2 * ha + 1, 2 * ha + 1))
         _block_kernel(self.noise_key, k, self.footprint_centre[k], self.footprint_power[k],
@@ -340,7 +347,7 @@ def intensity_psf(position, grid=IntensityGrid()):
     """Footprint of a target at Cartesian ``position`` (3,) (radar at the origin):
     ``(cells (27, 3) int64, h (27,))`` -- the integer cell indices and the amplitude PSF."""
     grid = _as_grid(grid)
-    p = as_vector(position, "position", 3)
+    p = _bounded(as_vector(position, "position", 3), "position")
     r = float(np.linalg.norm(p))
     if r == 0.0:
         raise ValueError("position must not be at the radar (range 0)")
@@ -352,7 +359,7 @@ def intensity_psf(position, grid=IntensityGrid()):
 
 
 def _as_particles(particles):
-    X = as_array(particles, "particles", ndim=2)
+    X = _bounded(as_array(particles, "particles", ndim=2), "particles")
     if X.shape[1] < 3:
         raise ValueError(f"particles must have shape (N, >=3), got {X.shape}")
     if X.shape[0] and np.any(np.linalg.norm(X[:, :3], axis=1) == 0):
@@ -389,10 +396,11 @@ def intensity_false_alarm_probability(threshold_db):
 
 
 @nb.njit(cache=True)
-def _extract_kernel(key, k, c0, fp, centre, R, tau, dr, dth):
+def _extract_kernel(key, k, c0, fp, centre, R, tau, dr, dth, max_cells):
     """Detections of scan ``k`` whose cell centre lies within ``R`` of ``centre``: cells
     with power >= ``tau`` that are the largest of their 27-cell neighbourhood.  Returns
-    ``(positions (n, 3), powers (n,), m)``; the first ``m`` rows are the detections."""
+    ``(positions (n, 3), powers (n,), m)``; the first ``m`` rows are the detections;
+    ``m = -1`` (and nothing examined) if the window spans more than ``max_cells``."""
     r_c, az_c, el_c = _rae(centre[0], centre[1], centre[2])
     if R >= r_c:
         half = 0.5 * math.pi
@@ -415,6 +423,8 @@ def _extract_kernel(key, k, c0, fp, centre, R, tau, dr, dth):
     j_lo = int(math.floor((az_c - ahalf) / dth)) - 1
     j_hi = int(math.ceil((az_c + ahalf) / dth)) + 1
     n = (i_hi - i_lo + 1) * (j_hi - j_lo + 1) * (l_hi - l_lo + 1)
+    if n > max_cells:
+        return np.empty((1, 3)), np.empty(1), -1
     pos = np.empty((max(n, 1), 3))
     powr = np.empty(max(n, 1))
     R2 = R * R
@@ -463,7 +473,7 @@ def intensity_detections(maps, k, centre, radius, threshold_db):
     ``threshold_db``, placed at their cell centres, with the cell power as measured SNR."""
     maps = _as_maps(maps)
     k = maps._scan(k)
-    c = as_vector(centre, "centre", 3)
+    c = _bounded(as_vector(centre, "centre", 3), "centre")
     if not np.linalg.norm(c) > 0:
         raise ValueError("centre must not be at the radar (range 0)")
     R = as_positive(radius, "radius")
@@ -471,7 +481,10 @@ def intensity_detections(maps, k, centre, radius, threshold_db):
     g = maps.grid
     pos, powr, m = _extract_kernel(maps.noise_key, k, maps.footprint_centre[k],
                                    maps.footprint_power[k], c, R, tau, g.range_cell,
-                                   g.angle_cell)
+                                   g.angle_cell, _MAX_WINDOW_CELLS)
+    if m < 0:
+        raise ValueError(f"radius {R:.3g} m spans more than {_MAX_WINDOW_CELLS} cells at "
+                         f"this range: use a smaller radius")
     return pos[:m].copy(), powr[:m].copy()
 
 
@@ -546,8 +559,8 @@ def _intensity_run_kernel(particles, logw, F, L, key, c0, fp, dr, dth, beta, snr
 
 
 def _start(x0, P0):
-    x0 = as_vector(x0, "x0", 6)
-    P0 = as_covariance(P0, "P0", 6, strict=True)
+    x0 = _bounded(as_vector(x0, "x0", 6), "x0")
+    P0 = _bounded(as_covariance(P0, "P0", 6, strict=True), "P0", _COV_LIMIT)
     return x0, P0
 
 
@@ -599,7 +612,8 @@ def _map_run_kernel(method, particles, logw, F, L, key, c0, fp, dr, dth, tau, lo
                     snr_cap, R, inv_r, inv_v, gauss, use_doppler, from_previous, resample_below,
                     design_snr,
                     log_pd, log_miss, log_rho, rae_density, sig_range, sig_angle, sig_rr,
-                    roughening, rng, est, cov, want_cov, centers, nproc, ess, resampled):
+                    roughening, rng, est, cov, want_cov, centers, nproc, ess, resampled,
+                    max_cells):
     N = particles.shape[0]
     K = c0.shape[0]
     ll = np.empty(N)
@@ -615,7 +629,11 @@ def _map_run_kernel(method, particles, logw, F, L, key, c0, fp, dr, dth, tau, lo
         _weighted_state(particles, logw, w, mean)
         for a in range(3):
             centers[k, a] = mean[a]
-        pos, powr, m = _extract_kernel(key, k, c0[k], fp[k], mean, R, tau, dr, dth)
+        pos, powr, m = _extract_kernel(key, k, c0[k], fp[k], mean, R, tau, dr, dth,
+                                       max_cells)
+        if m < 0:
+            raise ValueError("a processing window spans too many map cells (a track that "
+                             "wandered close to the radar): use a smaller processing_radius")
         nproc[k] = m
         n1 = max(m, 1)
         idx = np.arange(n1)
@@ -686,5 +704,5 @@ def run_tbd_tracker_on_map(maps, x0, P0, rng, config, *, covariances=True):
                     log_pd, log_miss, log_rho, config.clutter_density_rae > 0,
                     float(config.sigma_range), float(config.sigma_angle),
                     float(config.sigma_range_rate), float(config.roughening), rng, est, cov,
-                    bool(covariances), centers, nproc, ess, resampled)
+                    bool(covariances), centers, nproc, ess, resampled, _MAX_WINDOW_CELLS)
     return MapTrackResult(est, cov if covariances else None, centers, nproc, ess, resampled)

@@ -155,8 +155,23 @@ def _rae_jacobian_kernel(x, H, with_doppler):
         H[3, 5] = pz / r
 
 
+#: the largest position (m), velocity (m/s) or range rate a public function accepts, and
+#: the largest covariance entry: far beyond any radar, small enough that no square or
+#: product of them overflows
+_LIMIT = 1e12
+_COV_LIMIT = 1e24
+
+
+def _bounded(arr, name, limit=_LIMIT):
+    """``arr`` itself, after checking that every entry lies within ``±limit``."""
+    if arr.size and np.max(np.abs(arr)) > limit:
+        raise ValueError(f"{name} must lie within +-{limit:.0e} (metres, m/s), "
+                         f"got {np.max(np.abs(arr)):.3g}")
+    return arr
+
+
 def _states(x, name, n):
-    arr = as_array(x, name, ndim=(1, 2))
+    arr = _bounded(as_array(x, name, ndim=(1, 2)), name)
     single = arr.ndim == 1
     arr2 = arr.reshape(1, -1) if single else arr
     if arr2.shape[1] < n:
@@ -181,7 +196,7 @@ def range_azimuth_elevation(x):
 
 def range_azimuth_elevation_jacobian(x, with_doppler=False):
     """Jacobian ``(3, 6)`` (``(4, 6)`` with the range rate) at one state ``x`` (6,)."""
-    x = as_vector(x, "x", 6)
+    x = _bounded(as_vector(x, "x", 6), "x")
     if np.hypot(x[0], x[1]) == 0:
         raise ValueError("x must not lie on the z axis (azimuth undefined)")
     H = np.empty((4 if with_doppler else 3, 6))
@@ -813,11 +828,11 @@ def _scan_arrays(scans):
     except AttributeError:
         raise TypeError("scans must have attributes positions, range_rate, snr and offsets "
                         "(e.g. a trackcore.scenarios.TbdRadarScans)") from None
-    pos = as_array(positions, "scans.positions", ndim=2)
+    pos = _bounded(as_array(positions, "scans.positions", ndim=2), "scans.positions")
     if pos.shape[1] != 3:
         raise ValueError(f"scans.positions must have shape (M, 3), got {pos.shape}")
     M = pos.shape[0]
-    rr = as_array(range_rate, "scans.range_rate", shape=(M,))
+    rr = _bounded(as_array(range_rate, "scans.range_rate", shape=(M,)), "scans.range_rate")
     snr = _as_snr(snr, "scans.snr", (M,))
     off = as_offsets(offsets, M, "scans.offsets", min_scans=1)
     return pos, rr, snr, off
@@ -883,8 +898,8 @@ def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig(), *, covariance
         raise TypeError(f"config must be a TbdTrackerConfig, got {type(config).__name__}")
     rng = as_rng(rng)
     pos, rr, snr, off = _scan_arrays(scans)
-    x0 = as_vector(x0, "x0", 6)
-    P0 = as_covariance(P0, "P0", 6, strict=True)
+    x0 = _bounded(as_vector(x0, "x0", 6), "x0")
+    P0 = _bounded(as_covariance(P0, "P0", 6, strict=True), "P0", _COV_LIMIT)
     K = off.size - 1
     M = pos.shape[0]
     log_pfa = math.log(config.pfa)
@@ -955,11 +970,11 @@ def _kernel_flag(kernel):
 
 
 def _detections(positions, range_rate, snr):
-    pos = as_array(positions, "positions", ndim=2)
+    pos = _bounded(as_array(positions, "positions", ndim=2), "positions")
     m = pos.shape[0]
     if m and pos.shape[1] != 3:
         raise ValueError(f"positions must have shape (m, 3), got {pos.shape}")
-    rr = as_array(range_rate, "range_rate", shape=(m,))
+    rr = _bounded(as_array(range_rate, "range_rate", shape=(m,)), "range_rate")
     snr = _as_snr(snr, "snr", (m,))
     return np.ascontiguousarray(pos.reshape(m, 3)), rr, snr
 
@@ -975,8 +990,8 @@ def weighted_mean_detection(positions, range_rate, snr, p_ref, rr_ref, sigma_r, 
     """
     pos, rr, snr = _detections(positions, range_rate, snr)
     m = pos.shape[0]
-    p_ref = as_vector(p_ref, "p_ref", 3)
-    rr_ref = as_scalar(rr_ref, "rr_ref")
+    p_ref = _bounded(as_vector(p_ref, "p_ref", 3), "p_ref")
+    rr_ref = float(_bounded(np.array([as_scalar(rr_ref, "rr_ref")]), "rr_ref")[0])
     sigma_r = as_positive(sigma_r, "sigma_r")
     sigma_v = _finite_or_inf(sigma_v, "sigma_v")
     pfa = as_probability(pfa, "pfa", open_low=True, open_high=True)
@@ -998,7 +1013,7 @@ def direct_particle_log_weights(particles, positions, range_rate, snr, sigma_r, 
     ``snr`` (m,) linear, finite and >= 0; ``sigma_v = math.inf`` drops the Doppler factor.
     ``m = 0`` returns zeros (no information: the weights stay as they were).
     """
-    X = as_array(particles, "particles", ndim=2)
+    X = _bounded(as_array(particles, "particles", ndim=2), "particles")
     if X.shape[1] != 6:
         raise ValueError(f"particles must have shape (N, 6), got {X.shape}")
     pos, rr, snr = _detections(positions, range_rate, snr)
@@ -1029,7 +1044,7 @@ def pseudo_measurement_errors(scans, truth, config=TbdTrackerConfig(method="A"))
         raise TypeError(f"config must be a TbdTrackerConfig, got {type(config).__name__}")
     pos, rr, snr, off = _scan_arrays(scans)
     K = off.size - 1
-    Tr = as_array(truth, "truth", ndim=2)
+    Tr = _bounded(as_array(truth, "truth", ndim=2), "truth")
     if Tr.shape != (K, 6):
         raise ValueError(f"truth must have shape ({K}, 6) (one state per scan), got {Tr.shape}")
     dp = np.full((K, 3), np.nan)
@@ -1071,8 +1086,8 @@ def _pseudo_errors_kernel(pos, rr, snr, log_pfa, snr_cap, offsets, truth, R, inv
 
 def tbd_position_errors(estimates, truth):
     """Eq (20), corrected (erratum 9): ``E_err(k) = ||E_pos(k) - R_pos(k)||`` (K,)."""
-    E = as_array(estimates, "estimates", ndim=2)
-    Tr = as_array(truth, "truth", ndim=2)
+    E = _bounded(as_array(estimates, "estimates", ndim=2), "estimates")
+    Tr = _bounded(as_array(truth, "truth", ndim=2), "truth")
     if E.shape[0] != Tr.shape[0] or E.shape[1] < 3 or Tr.shape[1] < 3:
         raise ValueError(f"estimates and truth must be (K, >=3) with the same K, got "
                          f"{E.shape} and {Tr.shape}")
@@ -1082,9 +1097,9 @@ def tbd_position_errors(estimates, truth):
 def tbd_nees(estimates, covariances, truth):
     """Normalised estimation error squared ``e_kᵀ P_k⁻¹ e_k`` of every scan (K,), with
     ``e_k`` the full 6-D state error; NaN where ``P_k`` is not positive definite."""
-    E = as_array(estimates, "estimates", ndim=2)
-    C = as_array(covariances, "covariances", ndim=3)
-    Tr = as_array(truth, "truth", ndim=2)
+    E = _bounded(as_array(estimates, "estimates", ndim=2), "estimates")
+    C = _bounded(as_array(covariances, "covariances", ndim=3), "covariances", _COV_LIMIT)
+    Tr = _bounded(as_array(truth, "truth", ndim=2), "truth")
     K, n = E.shape
     if C.shape != (K, n, n) or Tr.shape[0] != K or Tr.shape[1] < n:
         raise ValueError(f"estimates (K, n), covariances (K, n, n) and truth (K, >= n) must "
@@ -1116,12 +1131,12 @@ def tbd_measurement_errors(positions, offsets, truth, mask=None):
     (K, >=3)``, ``mask (M,)`` booleans (default all).  NaN for a scan with no (masked)
     detection (the metric is undefined there).
     """
-    pos = as_array(positions, "positions", ndim=2)
+    pos = _bounded(as_array(positions, "positions", ndim=2), "positions")
     if pos.shape[1] != 3:
         raise ValueError(f"positions must have shape (M, 3), got {pos.shape}")
     M = pos.shape[0]
     off = as_offsets(offsets, M, "offsets")
-    Tr = as_array(truth, "truth", ndim=2)
+    Tr = _bounded(as_array(truth, "truth", ndim=2), "truth")
     K = off.size - 1
     if Tr.shape[0] != K or Tr.shape[1] < 3:
         raise ValueError(f"truth must have shape ({K}, >=3) (one row per scan), got {Tr.shape}")
