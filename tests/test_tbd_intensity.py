@@ -194,6 +194,14 @@ def test_false_alarm_probability_of_the_extractor():
                                                   * cos_el)
         expect += cells * intensity_false_alarm_probability(5.0)
     assert abs(count - expect) < 4 * math.sqrt(expect)
+    # a large window at a low threshold (thousands of detections in one extraction)
+    c = np.array([40e3, 10e3, 4e3])
+    pos, _ = intensity_detections(maps, 0, c, 8000.0, 0.0)
+    r = np.linalg.norm(pos, axis=1)
+    cells = np.sum(4 / 3 * math.pi * 8000.0 ** 3 / (GRID.range_cell * GRID.angle_cell ** 2))
+    mean_inv = np.mean(1.0 / (r ** 2 * np.cos(np.arcsin(pos[:, 2] / r))))
+    expect = cells * mean_inv * intensity_false_alarm_probability(0.0)
+    assert pos.shape[0] > 4096 and abs(pos.shape[0] - expect) < 0.05 * expect
 
 
 def test_detections_are_local_maxima_at_cell_centres():

@@ -68,8 +68,11 @@ from .tbd_pf import (_COV_LIMIT, _CODE, TbdTrackerConfig, _bounded, _inv, _log_c
                      _weighted_state, detection_snr_cap)
 
 #: the most cells one scan's detection extraction may examine (a window of radius R
-#: around a point at range r spans about (2R/Δr)(2R/(rΔθ))² cells)
-_MAX_WINDOW_CELLS = 2_000_000
+#: around a point at range r spans about (2R/Δr)(2R/(rΔθ))² cells, and at most
+#: (2R/Δr + 3)(2π/Δθ + 3)(π/Δθ + 3) when the window reaches the radar)
+_MAX_WINDOW_CELLS = 100_000_000
+#: the most cells :meth:`IntensityMaps.block` materialises
+_MAX_BLOCK_CELLS = 10_000_000
 
 __all__ = [
     "IntensityGrid",
@@ -247,9 +250,9 @@ class IntensityMaps:
                                                                      minimum=0)
         ha = self.grid.half_angle if half_angle is None else as_int(half_angle, "half_angle",
                                                                      minimum=0)
-        if (2 * hr + 1) * (2 * ha + 1) ** 2 > _MAX_WINDOW_CELLS:
+        if (2 * hr + 1) * (2 * ha + 1) ** 2 > _MAX_BLOCK_CELLS:
             raise ValueError(f"a block of half-sizes {hr} (range) and {ha} (angle) exceeds "
-                             f"{_MAX_WINDOW_CELLS} cells")
+                             f"{_MAX_BLOCK_CELLS} cells")
         origin = self.footprint_centre[k] - np.array([hr, ha, ha], dtype=np.int64)
         out = np.empty((2 * hr + 1, 2 * ha + 1, 2 * ha + 1))
         _block_kernel(self.noise_key, k, self.footprint_centre[k], self.footprint_power[k],
@@ -425,8 +428,9 @@ def _extract_kernel(key, k, c0, fp, centre, R, tau, dr, dth, max_cells):
     n = (i_hi - i_lo + 1) * (j_hi - j_lo + 1) * (l_hi - l_lo + 1)
     if n > max_cells:
         return np.empty((1, 3)), np.empty(1), -1
-    pos = np.empty((max(n, 1), 3))
-    powr = np.empty(max(n, 1))
+    cap = min(max(n, 1), 4096)
+    pos = np.empty((cap, 3))
+    powr = np.empty(cap)
     R2 = R * R
     m = 0
     for i in range(i_lo, i_hi + 1):
@@ -459,6 +463,14 @@ def _extract_kernel(key, k, c0, fp, centre, R, tau, dr, dth, max_cells):
                     if not peak:
                         break
                 if peak:
+                    if m == cap:  # grow the buffers (about 2.5 % of the cells at 5 dB)
+                        cap *= 2
+                        pos2 = np.empty((cap, 3))
+                        pow2 = np.empty(cap)
+                        pos2[:m] = pos[:m]
+                        pow2[:m] = powr[:m]
+                        pos = pos2
+                        powr = pow2
                     pos[m, 0] = x
                     pos[m, 1] = y
                     pos[m, 2] = z
@@ -631,9 +643,6 @@ def _map_run_kernel(method, particles, logw, F, L, key, c0, fp, dr, dth, tau, lo
             centers[k, a] = mean[a]
         pos, powr, m = _extract_kernel(key, k, c0[k], fp[k], mean, R, tau, dr, dth,
                                        max_cells)
-        if m < 0:
-            raise ValueError("a processing window spans too many map cells (a track that "
-                             "wandered close to the radar): use a smaller processing_radius")
         nproc[k] = m
         n1 = max(m, 1)
         idx = np.arange(n1)
@@ -680,6 +689,14 @@ def run_tbd_tracker_on_map(maps, x0, P0, rng, config, *, covariances=True):
     rng = as_rng(rng)
     maps = _as_maps(maps)
     x0, P0 = _start(x0, P0)
+    g = maps.grid
+    R = float(config.processing_radius)
+    worst = ((2 * R / g.range_cell + 3) * (2 * math.pi / g.angle_cell + 3)
+             * (math.pi / g.angle_cell + 3))
+    if worst > _MAX_WINDOW_CELLS:
+        raise ValueError(f"config.processing_radius {R:.3g} m could make a window span "
+                         f"{worst:.3g} map cells (more than {_MAX_WINDOW_CELLS}): use a "
+                         f"smaller radius or coarser cells")
     K = maps.n_scans
     particles, logw, F, L = _pf_setup(x0, P0, rng, config)
     log_rho = _log_clutter(config)
