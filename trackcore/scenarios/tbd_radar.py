@@ -1,8 +1,9 @@
 """The radar scenario of chapter 003 (Kwon, Kang & Kwak 2016) -- **the book's choice**.
 
 The paper gives no scenario numbers (positions, speeds, scan period, P_fa, noise,
-clutter density).  This module implements the scenario fixed by the book's spec
-(spec 003, sections 4-5), so that the three trackers can be compared:
+clutter density).  This module implements the scenario the book fixed before running
+any tracker (the chapter's scenario notebook lists it), so that the three trackers can be
+compared:
 
 * **Truth** (Fig 2): a low-observable aircraft, radar at the origin, z up, integrated at
   0.01 s from a piecewise acceleration profile and sampled every ``T = 1 s`` for 250
@@ -38,9 +39,11 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from ..core.validation import as_array, as_count, as_covariance, as_positive, as_rng
-from ..trackers.tbd_pf import (TBD_METHODS, TbdTrackerConfig, run_tbd_tracker,
-                               spherical_to_cartesian, tbd_position_errors)
+from ..core.validation import (as_array, as_count, as_covariance, as_int, as_nonnegative,
+                               as_positive, as_rng, as_scalar)
+from ..trackers.tbd_pf import (_COV_LIMIT, _LIMIT, TBD_METHODS, TbdTrackerConfig, _bounded,
+                               run_tbd_tracker, spherical_to_cartesian, tbd_nees,
+                               tbd_position_errors)
 
 __all__ = [
     "SPEED_OF_LIGHT",
@@ -59,7 +62,8 @@ __all__ = [
     "tbd_paired_trial",
 ]
 
-#: P_0 of spec 003 section 4: 300 m per position axis, 20 m/s per velocity axis
+#: the initial covariance P_0 of every tracker: 300 m per position axis, 20 m/s per
+#: velocity axis (the book's choice)
 TBD_INITIAL_COVARIANCE = np.diag([300.0 ** 2] * 3 + [20.0 ** 2] * 3)
 
 SPEED_OF_LIGHT = 299_792_458.0
@@ -71,8 +75,9 @@ _FLUCTUATIONS = ("lognormal", "swerling1", "none")
 
 @dataclass(frozen=True)
 class TbdRadarParameters:
-    """Scenario parameters (defaults: spec 003 sections 4-5; all are the book's choices
-    except the Table 2 entries: L band, N = 100 pulses, 35 dBi, 10 dB, RCS offsets)."""
+    """Scenario parameters (all are the book's choices except the Table 2 entries: L band,
+    N = 100 pulses, 35 dBi, 10 dB, RCS offsets).  Every field is checked when the record
+    is built."""
     scan_period: float = 1.0
     n_scans: int = 250
     integration_step: float = 0.01
@@ -100,18 +105,24 @@ class TbdRadarParameters:
 
     def __post_init__(self):
         if self.fluctuation not in _FLUCTUATIONS:
-            raise ValueError(f"fluctuation must be one of {_FLUCTUATIONS}, got {self.fluctuation!r}")
+            raise ValueError(f"fluctuation must be one of {_FLUCTUATIONS}, "
+                             f"got {self.fluctuation!r}")
         for name in ("scan_period", "integration_step", "frequency", "noise_temperature",
                      "sigma_range", "sigma_azimuth", "sigma_elevation", "sigma_range_rate",
                      "clutter_doppler_max", "processing_radius"):
             as_positive(getattr(self, name), name)
         for name in ("clutter_density", "rcs_sigma_db", "simulation_margin"):
-            if not (np.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
-                raise ValueError(f"{name} must be finite and >= 0, got {getattr(self, name)}")
-        if as_count(self.n_scans, "n_scans") < 1:
-            raise ValueError("n_scans must be >= 1")
-        if len(self.rcs_offsets_db) != 4:
+            as_nonnegative(getattr(self, name), name)
+        for name in ("gain_tx_db", "gain_rx_db", "noise_figure_db", "loss_db", "rcs_ref_dbsm",
+                     "snr0_db", "threshold_db"):
+            as_scalar(getattr(self, name), name)
+        as_int(self.n_scans, "n_scans", minimum=1)
+        as_int(self.n_pulses, "n_pulses", minimum=1)
+        offs = self.rcs_offsets_db
+        if not isinstance(offs, (tuple, list)) or len(offs) != 4:
             raise ValueError("rcs_offsets_db must hold 4 values (one per flight phase)")
+        for v in offs:
+            as_scalar(v, "rcs_offsets_db")
         ratio = self.scan_period / self.integration_step
         if abs(ratio - round(ratio)) > 1e-9:
             raise ValueError("scan_period must be a whole multiple of integration_step")
@@ -171,7 +182,7 @@ class TbdRadarScans:
 # ----------------------------------------------------------------------------- truth
 @nb.njit(cache=True)
 def _integrate_profile_kernel(p0, v0, dt, steps_per_scan, n_scans, out):
-    """Integrate the spec's acceleration profile; write the state at every scan."""
+    """Integrate the scenario's acceleration profile; write the state at every scan."""
     p = p0.copy()
     v = v0.copy()
     om = -math.pi / 20.0
@@ -210,11 +221,27 @@ def _integrate_profile_kernel(p0, v0, dt, steps_per_scan, n_scans, out):
 
 
 def radar_equation_snr(rcs_m2, range_m, pt_tau, params=TbdRadarParameters()):
-    """Mean linear SNR ``P_t τ N G_t G_r λ² σ / ((4π)³ R⁴ k T_0 F L)``."""
-    rcs = as_array(rcs_m2, "rcs_m2")
-    rng_m = as_array(range_m, "range_m")
+    """Mean linear SNR ``P_t τ N G_t G_r λ² σ / ((4π)³ R⁴ k T_0 F L)``.
+
+    ``rcs_m2`` (m², >= 0) and ``range_m`` (m, > 0) broadcast together; ``pt_tau`` (J, > 0)
+    is the transmitted energy per pulse.
+    """
+    if not isinstance(params, TbdRadarParameters):
+        raise TypeError(f"params must be TbdRadarParameters, got {type(params).__name__}")
+    rcs = _bounded(as_array(rcs_m2, "rcs_m2"), "rcs_m2")
+    rng_m = _bounded(as_array(range_m, "range_m"), "range_m")
+    if np.any(rcs < 0):
+        raise ValueError("rcs_m2 must be >= 0 (a radar cross-section in m², not dBsm)")
     if np.any(rng_m <= 0):
         raise ValueError("range_m must be > 0")
+    pt_tau = as_positive(pt_tau, "pt_tau")
+    if pt_tau > _LIMIT:
+        raise ValueError(f"pt_tau must be at most {_LIMIT:.0e} J, got {pt_tau:.3g}")
+    try:
+        np.broadcast_shapes(rcs.shape, rng_m.shape)
+    except ValueError:
+        raise ValueError(f"rcs_m2 {rcs.shape} and range_m {rng_m.shape} must broadcast "
+                         f"together") from None
     g = 10.0 ** ((params.gain_tx_db + params.gain_rx_db) / 10.0)
     fl = 10.0 ** ((params.noise_figure_db + params.loss_db) / 10.0)
     num = pt_tau * params.n_pulses * g * params.wavelength ** 2 * rcs
@@ -223,13 +250,14 @@ def radar_equation_snr(rcs_m2, range_m, pt_tau, params=TbdRadarParameters()):
 
 
 def tbd_radar_truth(params=TbdRadarParameters()):
-    """Truth trajectory, phases, aspect-dependent RCS and mean SNR (spec 5.1-5.2)."""
+    """Truth trajectory, phases, aspect-dependent RCS and mean SNR of the chapter's
+    scenario (its Figs 2 and 3)."""
     if not isinstance(params, TbdRadarParameters):
         raise TypeError(f"params must be TbdRadarParameters, got {type(params).__name__}")
     K = int(params.n_scans)
     T = params.scan_period
     if abs(T - 1.0) > 1e-12:
-        raise ValueError("the spec's profile is defined for scan_period = 1 s")
+        raise ValueError("the scenario's profile is defined for scan_period = 1 s")
     steps = int(round(T / params.integration_step))
     states = np.empty((K, 6))
     _integrate_profile_kernel(np.array([50e3, 20e3, 7e3]), np.array([-200.0, 0.0, 0.0]),
@@ -254,7 +282,7 @@ def sample_clutter(centers, radius, threshold, density_per_km3, doppler_max, rng
     Returns ``(positions (M, 3), range_rate (M,), zeta (M,), counts (K,))`` in sphere order.
     """
     rng = as_rng(rng)
-    C = as_array(centers, "centers", ndim=2)
+    C = _bounded(as_array(centers, "centers", ndim=2), "centers")
     if C.shape[1] != 3:
         raise ValueError(f"centers must have shape (K, 3), got {C.shape}")
     radius = as_positive(radius, "radius")
@@ -266,6 +294,9 @@ def sample_clutter(centers, radius, threshold, density_per_km3, doppler_max, rng
     doppler_max = as_positive(doppler_max, "doppler_max")
     volume_km3 = 4.0 / 3.0 * math.pi * (radius / 1000.0) ** 3
     mean = density_per_km3 * math.exp(-threshold) * volume_km3
+    if not mean * C.shape[0] <= 1e8:
+        raise ValueError(f"about {mean * C.shape[0]:.3g} false alarms to draw: reduce "
+                         f"radius, density_per_km3 or the number of centers (at most 1e8)")
     counts = rng.poisson(mean, size=C.shape[0])
     M = int(counts.sum())
     u = rng.standard_normal((M, 3))
@@ -363,14 +394,16 @@ class TbdTrialResult:
     """One paired Monte Carlo run: every tracker on the same detections and start."""
     errors: dict        # name -> (K,) E_err(k) (eq 20)
     n_processed: dict   # name -> (K,) detections inside the processing sphere
+    nees: dict          # name -> (K,) NEES of the 6-D state (trackcore.trackers.tbd_nees),
+    #                     for the configurations whose method is in nees_methods
     x0: np.ndarray      # (6,) the shared initial estimate
     scans: object       # TbdRadarScans (None unless keep=True)
     tracks: dict        # name -> TbdTrackResult (empty unless keep=True)
 
 
 def tbd_paired_trial(rng, configs, params=TbdRadarParameters(), truth=None,
-                     P0=TBD_INITIAL_COVARIANCE, keep=False):
-    """One run of the chapter's experiment (spec 003 section 5.4), for ``montecarlo.run``.
+                     P0=TBD_INITIAL_COVARIANCE, keep=False, nees_methods=("A",)):
+    """One run of the chapter's experiment, for :func:`trackcore.montecarlo.run`.
 
     ``rng`` is split into a scenario stream (detections, then ``x0 ~ N(s_0, P0)``) and a
     filter stream per tracker *method* (``TBD_METHODS`` order), so every configuration of a
@@ -378,6 +411,8 @@ def tbd_paired_trial(rng, configs, params=TbdRadarParameters(), truth=None,
     every method sees the same detections and start.  ``configs``: dict name ->
     :class:`~trackcore.trackers.TbdTrackerConfig`.  ``truth`` defaults to
     ``tbd_radar_truth(params)``.  ``keep=True`` also returns the scans and full tracks.
+    ``nees_methods``: the method letters whose NEES is computed (the particle filters'
+    weighted covariance costs about a sixth of their run time; the EKF's is free).
     """
     rng = as_rng(rng)
     if not isinstance(configs, dict) or not configs:
@@ -385,19 +420,31 @@ def tbd_paired_trial(rng, configs, params=TbdRadarParameters(), truth=None,
     for name, cfg in configs.items():
         if not isinstance(cfg, TbdTrackerConfig):
             raise TypeError(f"configs[{name!r}] must be a TbdTrackerConfig")
+    if not isinstance(params, TbdRadarParameters):
+        raise TypeError(f"params must be TbdRadarParameters, got {type(params).__name__}")
     if truth is None:
         truth = tbd_radar_truth(params)
-    P0 = as_covariance(P0, "P0", 6, strict=True)
+    if not isinstance(truth, TbdRadarTruth):
+        raise TypeError(f"truth must be TbdRadarTruth, got {type(truth).__name__}")
+    P0 = _bounded(as_covariance(P0, "P0", 6, strict=True), "P0", _COV_LIMIT)
+    if isinstance(nees_methods, str) or not all(m in TBD_METHODS for m in nees_methods):
+        raise ValueError(f"nees_methods must be a sequence of letters from {TBD_METHODS}, "
+                         f"got {nees_methods!r}")
     r_scene, r_filter = rng.spawn(2)
     scans = simulate_tbd_radar(truth, params, r_scene)
     x0 = truth.states[0] + np.linalg.cholesky(P0) @ r_scene.standard_normal(6)
     seeds = r_filter.bit_generator.seed_seq.spawn(len(TBD_METHODS))
-    errors, nproc, tracks = {}, {}, {}
+    errors, nproc, nees, tracks = {}, {}, {}, {}
+    caches = {}  # log P_D of eq (9) per detection, shared by trackers with the same P_fa
     for name, cfg in configs.items():
         g = np.random.default_rng(seeds[TBD_METHODS.index(cfg.method)])
-        res = run_tbd_tracker(scans, x0, P0, g, cfg)
+        want = cfg.method in nees_methods
+        cache = caches.setdefault(cfg.pfa, np.full(scans.positions.shape[0], np.nan))
+        res = run_tbd_tracker(scans, x0, P0, g, cfg, covariances=want, log_pd_cache=cache)
         errors[name] = tbd_position_errors(res.estimates, truth.states)
         nproc[name] = res.n_processed
+        if want:
+            nees[name] = tbd_nees(res.estimates, res.covariances, truth.states)
         if keep:
             tracks[name] = res
-    return TbdTrialResult(errors, nproc, x0, scans if keep else None, tracks)
+    return TbdTrialResult(errors, nproc, nees, x0, scans if keep else None, tracks)
