@@ -251,6 +251,8 @@ def test_gate_miss_failures():
         gate_miss_failures(np.zeros(3))
     with pytest.raises(ValueError, match="n_consecutive"):
         gate_miss_failures(g, 0)
+    with pytest.raises(ValueError, match="target_gated"):   # codes other than 1, 0, -1
+        gate_miss_failures(np.array([[1, 2, 0]], dtype=np.int8))
 
 
 def test_trial_shapes_and_common_random_numbers():

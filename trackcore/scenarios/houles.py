@@ -326,6 +326,10 @@ def gate_miss_failures(target_gated, n_consecutive=3):
     g = np.asarray(target_gated)
     if g.ndim < 1 or not np.issubdtype(g.dtype, np.integer):
         raise TypeError("target_gated must be an integer array (1 gated, 0 not, -1 missed)")
+    if g.size and not np.all((g == 1) | (g == 0) | (g == -1)):
+        bad = sorted(set(np.unique(g).tolist()) - {-1, 0, 1})
+        raise ValueError(f"target_gated must hold only 1 (gated), 0 (outside every gate) and "
+                         f"-1 (missed), got {bad[:5]}")
     n = as_int(n_consecutive, "n_consecutive", minimum=1)
     out = np.zeros(g.shape[:-1], dtype=bool)
     streak = np.zeros(g.shape[:-1], dtype=np.int64)
