@@ -732,7 +732,8 @@ def imm_pdaf_track_packed(models, z, offsets, x0, P0, R, *, pd=1.0, pg=0.99,
     ``clutter_density`` = lambda (m^-2, 0 for no clutter).  For the TOM the
     heading chord starts from ``prev_position`` (default ``x0[:2] - T v0``,
     which for a two-point initialisation is the first measurement) and
-    ``x0[:2]``.
+    ``x0[:2]``; the initial velocity ``x0[2:]`` must not be zero, because its
+    direction is the initial heading of the target-oriented frame.
     """
     if not isinstance(models, IMMModelSet):
         raise TypeError(f"models must be an IMMModelSet, got {type(models).__name__}")
