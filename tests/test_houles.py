@@ -251,6 +251,28 @@ def test_gate_miss_failures():
         gate_miss_failures(np.zeros(3))
     with pytest.raises(ValueError, match="n_consecutive"):
         gate_miss_failures(g, 0)
+    with pytest.raises(ValueError, match="target_gated"):   # codes other than 1, 0, -1
+        gate_miss_failures(np.array([[1, 2, 0]], dtype=np.int8))
+
+
+def test_failure_comparison():
+    from trackcore.scenarios import failure_comparison
+    from trackcore.stats import mcnemar_exact
+    rng = np.random.default_rng(7)
+    fa = rng.random(400) < 0.10
+    fb = fa & (rng.random(400) < 0.3)            # B fails only where A does, less often
+    failed = np.column_stack([fa, fb])
+    c = failure_comparison(failed, 0, 1)
+    assert c.only_a == int(np.sum(fa & ~fb)) and c.only_b == 0
+    assert c.p_value == mcnemar_exact(c.only_a, 0) and c.p_value < 1e-6
+    assert c.difference.value == pytest.approx(fa.mean() - fb.mean())
+    assert c.difference.lo > 0
+    same = failure_comparison(np.column_stack([fa, fa]), 0, 1)
+    assert same.difference.value == 0 and same.p_value == 1.0
+    with pytest.raises(ValueError, match="failed"):
+        failure_comparison(failed.astype(int), 0, 1)
+    with pytest.raises(ValueError, match="b"):
+        failure_comparison(failed, 0, 2)
 
 
 def test_trial_shapes_and_common_random_numbers():

@@ -229,6 +229,13 @@ def test_bad_inputs():
         singer_imm_model_set(tau=(0.0, 5.0))
     with pytest.raises(ValueError, match="R"):
         two_point_init([0, 0], [1, 1], -np.eye(2))
+    # the TOM's frame needs a heading: a zero initial velocity is an error, not phi0 = 0
+    with pytest.raises(ValueError, match="x0"):
+        imm_pdaf_track(tom_imm_model_set(), scans, np.zeros(4), P0, R)
+    with pytest.raises(ValueError, match="sigma_s"):
+        tom_model_set([0.0], [1e200])
+    with pytest.raises(TypeError, match="rotate_covariance"):
+        tom_imm_model_set(rotate_covariance=1)
 
 
 # ---------------------------------------------------------------- records and builders
@@ -261,6 +268,19 @@ def test_model_set_record_validates_every_field():
     sing = singer_imm_model_set()
     with pytest.raises(ValueError, match="tom"):
         dataclasses.replace(sing, tom=True)
+    # TOM-only fields on a non-TOM set would be ignored silently: refused
+    for field, value in [("u", np.full(3, 70.0)), ("var_f", np.ones(3)),
+                         ("var_s", np.ones(3)), ("cwna", True), ("heading", "velocity"),
+                         ("reset_vs_variance", True), ("rotate_covariance", True)]:
+        with pytest.raises(ValueError, match=field):
+            dataclasses.replace(good, **{field: value})
+    # ... while zeros and defaults (what replace() passes back) are accepted
+    dataclasses.replace(good, u=np.zeros(3), var_f=np.zeros(3), name="CAR again")
+    tom = tom_imm_model_set()
+    for field in ("reset_vs_variance", "rotate_covariance"):
+        assert getattr(dataclasses.replace(tom, **{field: True}), field) is True
+        with pytest.raises(TypeError, match=field):
+            dataclasses.replace(tom, **{field: "yes"})
 
 
 def test_markov_matrix_checks_r():

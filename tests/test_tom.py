@@ -184,6 +184,17 @@ def test_bad_inputs():
         tom_process_noise(0.1, 1.0, 1.0, np.inf)
     with pytest.raises(ValueError, match="kind"):
         tom_process_noise(0.1, 1.0, 1.0, 1.0, kind="white")
+    # finite but huge: the square overflows; a ValueError naming the argument, never an
+    # OverflowError or an inf in Q
+    for f in (tom_process_noise, tom_printed_process_noise):
+        with pytest.raises(ValueError, match="sigma_f"):
+            f(0.1, 1.0, 1e200, 1.0)
+        with pytest.raises(ValueError, match="sigma_s"):
+            f(0.1, 1.0, 1.0, 1e200)
+        with pytest.raises(ValueError, match="T"):
+            f(0.1, 1e100, 1.0, 1.0)
+        with pytest.raises(ValueError, match="too large together"):
+            f(0.1, 1e60, 1e100, 1.0)
     with pytest.raises(ValueError, match="x"):
         tom_from_cartesian(np.zeros(3), np.eye(4), 0.0)
     with pytest.raises(ValueError, match="P"):

@@ -6,8 +6,13 @@ cycle matters: the heading of eq. (8) (each of the three heading rules), IMM mix
 ``v_s <- u_j`` before each model's prediction with that model's ``Phi(phi)`` and
 ``Q_j(phi)``, gating with the union of the model gates, the parametric PDA per model,
 model probabilities, the moment-matched combination, the Cartesian output and the
-``v_s <- 0`` reset.  The loop uses plain numpy and scipy (no trackcore kernel) and must
-agree with :func:`trackcore.trackers.imm_pdaf_track` to 1e-9.
+``v_s <- 0`` reset, with the two covariance readings kept as ablations (the ``v_s``
+variance zeroed at the reset; the covariance rotated into the new heading's frame).
+The data cover P_D = 1 and P_D < 1, with and without clutter, so that scans with no
+validated measurement and no clutter (the branch where every PDA hypothesis is
+impossible and the prediction is kept) are exercised.  The loop uses plain numpy and
+scipy (no trackcore kernel) and must agree with :func:`trackcore.trackers.imm_pdaf_track`
+to 1e-9.
 """
 import math
 
@@ -50,10 +55,12 @@ def _gauss(nu, S):
     return math.exp(-0.5 * nu @ np.linalg.solve(S, nu)) / (2 * math.pi * math.sqrt(np.linalg.det(S)))
 
 
-def reference_tom_imm(scans, x0, P0, *, pd, pg, lam, heading):
+def reference_tom_imm(scans, x0, P0, *, pd, pg, lam, heading, reset_var=False,
+                      rotate=False):
     """The TOM-IMM-PDAF cycle, one scan at a time, written out directly."""
     r = U.size
     phi = math.atan2(x0[3], x0[2])
+    phi_frame = phi                       # the frame the model covariances are in
     B = np.eye(4)
     B[2:, 2:] = _rot(phi)
     X = [B @ x0 for _ in range(r)]
@@ -71,6 +78,12 @@ def reference_tom_imm(scans, x0, P0, *, pd, pg, lam, heading):
                 "velocity": (np.zeros(2), vel)}[heading]
         if np.hypot(*(b - a)) >= 1e-6:
             phi = math.atan2(b[1] - a[1], b[0] - a[0])
+        if rotate:
+            # velocity in the old frame -> Cartesian -> the new frame
+            Bv = np.eye(4)
+            Bv[2:, 2:] = _rot(phi) @ _rot(phi_frame)
+            P = [Bv @ Pj @ Bv.T for Pj in P]
+        phi_frame = phi
         # mixing
         cbar = PI.T @ mu
         Xm, Pmix = [], []
@@ -101,6 +114,11 @@ def reference_tom_imm(scans, x0, P0, *, pd, pg, lam, heading):
             miss = lam * (1.0 - pd * pg)
             norm = miss + L.sum()
             like[j] = norm
+            if norm == 0.0:
+                # no clutter and nothing validated: every hypothesis is impossible,
+                # keep the prediction (the model likelihoods are all equal)
+                X[j], P[j] = xp[j], Pp[j]
+                continue
             beta = L / norm
             beta0 = miss / norm
             W = Pp[j] @ H.T @ np.linalg.inv(S[j])
@@ -110,8 +128,8 @@ def reference_tom_imm(scans, x0, P0, *, pd, pg, lam, heading):
             spread = sum((beta[i] * np.outer(nus[i], nus[i]) for i in range(len(nus))),
                          np.zeros((2, 2))) - np.outer(nu, nu)
             P[j] = beta0 * Pp[j] + (1 - beta0) * Pc + W @ spread @ W.T
-        # model probabilities
-        mu = cbar * like / np.sum(cbar * like)
+        # model probabilities (all likelihoods zero: the predicted probabilities)
+        mu = cbar * like / np.sum(cbar * like) if np.sum(cbar * like) > 0 else cbar.copy()
         # combination and Cartesian output
         xc = sum(mu[j] * X[j] for j in range(r))
         Pcm = sum(mu[j] * (P[j] + np.outer(X[j] - xc, X[j] - xc)) for j in range(r))
@@ -127,34 +145,87 @@ def reference_tom_imm(scans, x0, P0, *, pd, pg, lam, heading):
         for j in range(r):
             X[j] = X[j].copy()
             X[j][3] = 0.0
+            if reset_var:
+                P[j] = P[j].copy()
+                P[j][3, :] = 0.0
+                P[j][:, 3] = 0.0
     return np.array(out_x), np.array(out_P), np.array(out_mu), np.array(out_phi)
 
 
-def _data(seed, clutter):
+def _data(seed, clutter, pd=1.0):
     truth = houles_truth(np.arange(61.0))   # 60 s: the straight leg and the first turn
-    s = houles_measurements(truth, np.random.default_rng(seed), clutter_density=clutter,
-                            window=1500.0)
-    t0, t1 = s.target_index[0], s.target_index[1]
-    x0, P0 = two_point_init(s.z[t0], s.z[t1], R)
+    rng = np.random.default_rng(seed)
+    s = houles_measurements(truth, rng, clutter_density=clutter, window=1500.0, pd=pd)
+    # the two-point start uses target measurements at t = 0, 1 (drawn here if missed)
+    z01 = [s.z[s.target_index[k]] if s.target_index[k] >= 0
+           else truth[k, :2] + rng.normal(0.0, 20.0, 2) for k in (0, 1)]
+    x0, P0 = two_point_init(z01[0], z01[1], R)
     return s.scans()[2:], x0, P0
 
 
-@pytest.mark.parametrize("heading", ["chord", "chord_literal", "velocity"])
-@pytest.mark.parametrize("seed,clutter,pg", [(1, 0.0, 1.0), (2, 4e-6, 0.9999)])
-def test_tom_imm_equals_independent_loop(heading, seed, clutter, pg):
-    scans, x0, P0 = _data(seed, clutter)
-    models = tom_model_set(U, SIG_S, sigma_f=SIG_F, transition=PI, mu0=MU0, heading=heading)
-    res = imm_pdaf_track(models, scans, x0, P0, R, pd=1.0, pg=pg, clutter_density=clutter)
-    xs, Ps, mus, phis = reference_tom_imm(scans, x0, P0, pd=1.0, pg=pg, lam=clutter,
-                                          heading=heading)
+CASES = [  # seed, clutter density, P_G, P_D
+    (1, 0.0, 1.0, 1.0),
+    (2, 4e-6, 0.9999, 1.0),
+    (4, 0.0, 0.99, 0.7),    # misses without clutter: empty scans, nothing validated
+    (5, 4e-6, 0.999, 0.8),
+]
+
+
+def _check(heading, case, reset_var=False, rotate=False):
+    seed, clutter, pg, pd = case
+    scans, x0, P0 = _data(seed, clutter, pd)
+    models = tom_model_set(U, SIG_S, sigma_f=SIG_F, transition=PI, mu0=MU0, heading=heading,
+                           reset_vs_variance=reset_var, rotate_covariance=rotate)
+    res = imm_pdaf_track(models, scans, x0, P0, R, pd=pd, pg=pg, clutter_density=clutter)
+    xs, Ps, mus, phis = reference_tom_imm(scans, x0, P0, pd=pd, pg=pg, lam=clutter,
+                                          heading=heading, reset_var=reset_var,
+                                          rotate=rotate)
     np.testing.assert_allclose(res.heading, phis, rtol=0, atol=1e-9)
     np.testing.assert_allclose(res.x, xs, rtol=1e-9, atol=1e-9 * np.abs(xs).max())
     np.testing.assert_allclose(res.P, Ps, rtol=1e-9, atol=1e-9 * np.abs(Ps).max())
     np.testing.assert_allclose(res.mu, mus, rtol=0, atol=1e-9)
+    return scans, res, mus
+
+
+@pytest.mark.parametrize("heading", ["chord", "chord_literal", "velocity"])
+@pytest.mark.parametrize("case", CASES, ids=[f"seed{c[0]}" for c in CASES])
+def test_tom_imm_equals_independent_loop(heading, case):
+    scans, res, mus = _check(heading, case)
+    seed, clutter, pg, pd = case
     # the case exercises what it should: the models disagree and all carry weight
     assert mus.min() < 0.05 and np.max(mus[:, 1]) > 0.5 and np.max(mus[:, 0]) > 0.5
     if clutter:
         assert sum(len(s) for s in scans) > 2 * len(scans)   # clutter was there
+    else:
+        # no clutter and P_D < 1: some scans are empty, so nothing is validated there
+        assert (min(len(s) for s in scans) == 0) == (pd < 1)
+
+
+@pytest.mark.parametrize("reset_var,rotate", [(True, False), (False, True), (True, True)])
+@pytest.mark.parametrize("case", CASES, ids=[f"seed{c[0]}" for c in CASES])
+def test_covariance_readings_equal_independent_loop(reset_var, rotate, case):
+    _, res, _ = _check("chord", case, reset_var, rotate)
+    # and they change the filter: the book's reading differs
+    base = _check("chord", case)[1]
+    assert np.max(np.abs(res.P - base.P)) > 1e-3
+
+
+def test_empty_gate_keeps_the_prediction():
+    """No clutter, nothing validated: the PDA keeps every model's prediction and the model
+    probabilities stay at their predicted (mixed) values."""
+    case = CASES[2]
+    scans, x0, P0 = _data(case[0], case[1], case[3])
+    k = next(i for i, s in enumerate(scans) if len(s) == 0)
+    models = tom_model_set(U, SIG_S, sigma_f=SIG_F, transition=PI, mu0=MU0)
+    a = imm_pdaf_track(models, scans[:k], x0, P0, R, pd=case[3], pg=case[2],
+                       clutter_density=0.0)
+    b = imm_pdaf_track(models, scans[:k + 1], x0, P0, R, pd=case[3], pg=case[2],
+                       clutter_density=0.0)
+    mu_prev = a.mu[-1] if k else MU0
+    np.testing.assert_allclose(b.mu[-1], PI.T @ mu_prev, atol=1e-12)
+    assert np.all(np.isfinite(b.x[-1])) and np.all(np.isfinite(b.P[-1]))
+    # the combined estimate moved by one prediction: its covariance grew
+    assert np.trace(b.P[-1][:2, :2]) > np.trace((a.P[-1] if k else P0)[:2, :2])
 
 
 def test_heading_indices():

@@ -138,6 +138,26 @@ def tom_transition(phi, T):
     return out
 
 
+def _finite_noise_inputs(T, sigma_f, sigma_s):
+    """``(T, var_f, var_s)`` after checking that the entries of ``Q`` are finite.
+
+    ``sigma**2`` or ``T**4`` of a huge finite input overflows; that is a bad argument,
+    reported as a ``ValueError`` naming it, never an ``OverflowError`` or an ``inf``.
+    """
+    with np.errstate(over="ignore"):
+        var_f = np.float64(sigma_f) * np.float64(sigma_f)
+        var_s = np.float64(sigma_s) * np.float64(sigma_s)
+        T4 = np.float64(T) ** 4
+        big = max(var_f, var_s) * max(T4, 1.0)
+    for name, v in (("sigma_f", var_f), ("sigma_s", var_s), ("T", T4)):
+        if not np.isfinite(v):
+            raise ValueError(f"{name} is too large: the process noise overflows")
+    if not np.isfinite(big):
+        raise ValueError("sigma_f, sigma_s and T are too large together: the process noise "
+                         "overflows")
+    return T, float(var_f), float(var_s)
+
+
 def tom_process_noise(phi, T, sigma_f, sigma_s, kind="dwna"):
     """TOM process-noise covariance (paper eq. 7 corrected, or its CWNA form).
 
@@ -152,8 +172,9 @@ def tom_process_noise(phi, T, sigma_f, sigma_s, kind="dwna"):
     sigma_f = as_nonnegative(sigma_f, "sigma_f")
     sigma_s = as_nonnegative(sigma_s, "sigma_s")
     _check_kind(kind)
+    T, var_f, var_s = _finite_noise_inputs(T, sigma_f, sigma_s)
     out = np.empty((4, 4))
-    tom_process_noise_kernel(phi, T, sigma_f**2, sigma_s**2, kind == "cwna", out)
+    tom_process_noise_kernel(phi, T, var_f, var_s, kind == "cwna", out)
     return out
 
 
@@ -166,7 +187,10 @@ def tom_printed_process_noise(phi, T, sigma_f, sigma_s):
     use it in a filter.
     """
     Q = tom_process_noise(phi, T, sigma_f, sigma_s, kind="dwna")
-    q12 = (sigma_f**2 + sigma_s**2) * math.sin(as_scalar(phi, "phi")) * T**4 / 4.0
+    T, var_f, var_s = _finite_noise_inputs(as_nonnegative(T, "T"),
+                                           as_nonnegative(sigma_f, "sigma_f"),
+                                           as_nonnegative(sigma_s, "sigma_s"))
+    q12 = (var_f + var_s) * math.sin(as_scalar(phi, "phi")) * T**4 / 4.0
     Q[0, 1] = Q[1, 0] = q12
     return Q
 

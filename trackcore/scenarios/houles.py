@@ -26,7 +26,7 @@ import numpy as np
 from ..core.validation import (as_array, as_int, as_nonnegative, as_positive, as_probability,
                                as_rng)
 from ..models.motion import coordinated_turn_transition
-from ..stats import Estimate, bootstrap_ci, rate_ci, ratio_ci
+from ..stats import Estimate, bootstrap_ci, mcnemar_exact, paired_diff_ci, rate_ci, ratio_ci
 
 __all__ = [
     "HOULES_INITIAL_STATE",
@@ -44,6 +44,8 @@ __all__ = [
     "gate_miss_failures",
     "FailureAnatomy",
     "failure_anatomy",
+    "FailureComparison",
+    "failure_comparison",
     "rmse_estimate",
     "rmse_ratio",
     "HoulesTable",
@@ -326,6 +328,10 @@ def gate_miss_failures(target_gated, n_consecutive=3):
     g = np.asarray(target_gated)
     if g.ndim < 1 or not np.issubdtype(g.dtype, np.integer):
         raise TypeError("target_gated must be an integer array (1 gated, 0 not, -1 missed)")
+    if g.size and not np.all((g == 1) | (g == 0) | (g == -1)):
+        bad = sorted(set(np.unique(g).tolist()) - {-1, 0, 1})
+        raise ValueError(f"target_gated must hold only 1 (gated), 0 (outside every gate) and "
+                         f"-1 (missed), got {bad[:5]}")
     n = as_int(n_consecutive, "n_consecutive", minimum=1)
     out = np.zeros(g.shape[:-1], dtype=bool)
     streak = np.zeros(g.shape[:-1], dtype=np.int64)
@@ -359,6 +365,40 @@ def failure_anatomy(pos_err2, threshold=200.0):
     first = np.argmax(above, axis=-1)
     onset = np.where(failed, HOULES_TIMES[first], np.nan)
     return FailureAnatomy(failed, onset, above[..., -1], above.sum(axis=-1))
+
+
+class FailureComparison(NamedTuple):
+    """Paired failure outcomes of two filters on the same runs (see :func:`failure_comparison`)."""
+    difference: Estimate  # rate of A minus rate of B, paired bootstrap interval
+    only_a: int           # runs that A failed and B did not
+    only_b: int           # runs that B failed and A did not
+    p_value: float        # exact two-sided McNemar test on the discordant runs
+
+
+def failure_comparison(failed, a, b):
+    """Failure rate of filter ``a`` minus that of filter ``b`` on the same runs.
+
+    ``failed`` (runs, filters) bool.  Returns :class:`FailureComparison`: the paired
+    difference of the rates with its interval (:func:`trackcore.stats.paired_diff_ci` on
+    the 0/1 outcomes) and the exact McNemar p-value (:func:`trackcore.stats.mcnemar_exact`)
+    on the runs where exactly one of the two failed.
+    """
+    failed = np.asarray(failed)
+    if failed.ndim != 2 or failed.dtype != np.bool_:
+        raise ValueError(f"failed must be a bool array of shape (runs, filters), got "
+                         f"{failed.dtype} {failed.shape}")
+    if failed.shape[0] < 2:
+        raise ValueError("failed must hold at least 2 runs")
+    nF = failed.shape[1]
+    a = _filter_index(a, "a", nF)
+    b = _filter_index(b, "b", nF)
+    fa, fb = failed[:, a], failed[:, b]
+    only_a, only_b = int(np.sum(fa & ~fb)), int(np.sum(~fa & fb))
+    if only_a + only_b == 0:  # identical outcomes in every run: the difference is exactly 0
+        diff = Estimate(0.0, 0.0, 0.0, n=fa.size, method="no discordant runs")
+    else:
+        diff = paired_diff_ci(fa.astype(float), fb.astype(float))
+    return FailureComparison(diff, only_a, only_b, mcnemar_exact(only_a, only_b))
 
 
 def _window_index(window):

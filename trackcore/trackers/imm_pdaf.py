@@ -20,7 +20,13 @@ The model sets share one numba whole-run kernel:
   ``heading="chord_literal"`` indexes eq. (8) literally (``Phi(k) =
   Phi(t_{k+1}, t_k)`` with the chord of ``k - 1`` and ``k - 2``, i.e. the
   chord one scan older than the default), and ``heading="velocity"`` takes the
-  direction of the combined velocity estimate at ``k - 1``.
+  direction of the combined velocity estimate at ``k - 1``.  Two readings of
+  what happens to the covariance, which the paper does not say, are kept as
+  ablations too: ``reset_vs_variance`` zeroes the ``v_s`` row and column of
+  every model's covariance along with the mean (``v_s = 0`` taken as exact),
+  and ``rotate_covariance`` turns each model's velocity covariance into the
+  frame of the new heading before mixing (the mean is re-pointed along the
+  new heading, as the reset implies, in every reading).
 * A single constant-velocity Kalman filter (:func:`cv_model_set`, one model).
 
 One scan of the IMM-PDAF (Blom & Bar-Shalom 1988; Houles & Bar-Shalom 1989):
@@ -140,6 +146,14 @@ class IMMModelSet:
         TOM process noise of the continuous-white-noise form instead of DWNA.
     heading : str
         TOM heading rule, one of :data:`TOM_HEADINGS`.
+    reset_vs_variance : bool
+        TOM: also zero the ``v_s`` row and column of each model's covariance at the reset.
+    rotate_covariance : bool
+        TOM: rotate each model's velocity covariance into the new heading's frame.
+
+    The TOM-only fields (``u``, ``var_f``, ``var_s``, ``cwna``, ``heading``,
+    ``reset_vs_variance``, ``rotate_covariance``) must keep their defaults (or zeros)
+    when ``tom`` is false: a non-TOM model set would silently ignore them.
     """
 
     name: str
@@ -159,6 +173,8 @@ class IMMModelSet:
     var_s: np.ndarray = None
     cwna: bool = False
     heading: str = "chord"
+    reset_vs_variance: bool = False
+    rotate_covariance: bool = False
 
     def __post_init__(self):
         def put(field, value):
@@ -210,6 +226,19 @@ class IMMModelSet:
         put("cwna", _flag(self.cwna, "cwna"))
         if self.heading not in TOM_HEADINGS:
             raise ValueError(f"heading must be one of {TOM_HEADINGS}, got {self.heading!r}")
+        put("reset_vs_variance", _flag(self.reset_vs_variance, "reset_vs_variance"))
+        put("rotate_covariance", _flag(self.rotate_covariance, "rotate_covariance"))
+        if not tom:
+            for field in ("u", "var_f", "var_s"):
+                if np.any(getattr(self, field) != 0):
+                    raise ValueError(f"{field} is a TOM parameter; it needs tom=True "
+                                     f"(a non-TOM model set would ignore it)")
+            for field, default in (("cwna", False), ("heading", "chord"),
+                                   ("reset_vs_variance", False),
+                                   ("rotate_covariance", False)):
+                if getattr(self, field) != default:
+                    raise ValueError(f"{field} is a TOM option; it needs tom=True "
+                                     f"(a non-TOM model set would ignore it)")
 
     @property
     def r(self) -> int:
@@ -367,7 +396,8 @@ def cv_model_set(T=1.0, sigma=1.0):
 
 
 def tom_model_set(u, sigma_s, sigma_f=1.0, T=1.0, transition=None, mu0=None, kind="dwna",
-                  heading="chord", name="TOM-IMM", labels=None):
+                  heading="chord", name="TOM-IMM", labels=None, reset_vs_variance=False,
+                  rotate_covariance=False):
     """Target-oriented models with lateral inputs ``u`` (m/s, one per model; ``+`` is
     to the right of the heading) and lateral noises ``sigma_s`` (m/s^2, one per
     model).
@@ -377,7 +407,9 @@ def tom_model_set(u, sigma_s, sigma_f=1.0, T=1.0, transition=None, mu0=None, kin
     (``"dwna"`` or ``"cwna"``).  ``heading`` is one of :data:`TOM_HEADINGS`.
     ``transition`` defaults to ``markov_matrix(r, 0.9)`` and ``mu0`` to 0.8 on the
     first model with the rest spread evenly.  ``labels`` (one string per model)
-    default to the inputs.
+    default to the inputs.  ``reset_vs_variance`` and ``rotate_covariance`` select
+    the covariance readings of the cycle (see the module docstring; both off is
+    the book's reading).
     """
     T = as_positive(T, "T")
     u = as_array(u, "u", ndim=1)
@@ -393,6 +425,11 @@ def tom_model_set(u, sigma_s, sigma_f=1.0, T=1.0, transition=None, mu0=None, kin
         raise ValueError("sigma_s must be >= 0")
     if sigma_f.min() < 0:
         raise ValueError("sigma_f must be >= 0")
+    with np.errstate(over="ignore"):
+        var_f, var_s = sigma_f * sigma_f, sigma_s * sigma_s
+    for nm, v in (("sigma_f", var_f), ("sigma_s", var_s)):
+        if not np.all(np.isfinite(v)):
+            raise ValueError(f"{nm} is too large: its square overflows")
     if kind not in ("dwna", "cwna"):
         raise ValueError(f"kind must be 'dwna' or 'cwna', got {kind!r}")
     if heading not in TOM_HEADINGS:
@@ -403,19 +440,21 @@ def tom_model_set(u, sigma_s, sigma_f=1.0, T=1.0, transition=None, mu0=None, kin
     zeros = np.zeros((r, 4, 4))
     return _finish(name, labels, zeros, zeros.copy(), _position_H(4), transition, mu0,
                    np.eye(4), np.zeros(4), [0, 1, 2, 3], tom=True, T=T, u=u,
-                   var_f=sigma_f**2, var_s=sigma_s**2, cwna=(kind == "cwna"),
-                   heading=heading)
+                   var_f=var_f, var_s=var_s, cwna=(kind == "cwna"),
+                   heading=heading, reset_vs_variance=reset_vs_variance,
+                   rotate_covariance=rotate_covariance)
 
 
 def tom_imm_model_set(T=1.0, u=70.0, sigma_f=1.0, sigma_s_centre=3.0, sigma_s_turn=20.0,
-                      transition=None, mu0=(0.8, 0.1, 0.1), kind="dwna", heading="chord"):
+                      transition=None, mu0=(0.8, 0.1, 0.1), kind="dwna", heading="chord",
+                      reset_vs_variance=False, rotate_covariance=False):
     """The paper's three target-oriented models with lateral inputs ``0, +u, -u`` (m/s).
 
     ``+u`` is a right turn (``+v_s`` points right of the heading).  Process
     noise :func:`trackcore.models.tom_process_noise` of ``kind`` with
     ``sigma_f`` for all models and ``sigma_s_centre`` / ``sigma_s_turn`` for the
-    lateral axis; ``heading`` is one of :data:`TOM_HEADINGS` (see
-    :func:`tom_model_set`).
+    lateral axis; ``heading`` is one of :data:`TOM_HEADINGS`;
+    ``reset_vs_variance`` and ``rotate_covariance`` as in :func:`tom_model_set`.
     """
     u = as_nonnegative(u, "u")
     sigma_f = as_nonnegative(sigma_f, "sigma_f")
@@ -424,7 +463,8 @@ def tom_imm_model_set(T=1.0, u=70.0, sigma_f=1.0, sigma_s_centre=3.0, sigma_s_tu
     labels = ("TOM u=0", f"TOM u=+{u:g} (right)", f"TOM u=-{u:g} (left)")
     return tom_model_set([0.0, u, -u], [sc, st, st], sigma_f=sigma_f, T=T,
                          transition=transition, mu0=mu0, kind=kind, heading=heading,
-                         labels=labels)
+                         labels=labels, reset_vs_variance=reset_vs_variance,
+                         rotate_covariance=rotate_covariance)
 
 
 def two_point_init(z0, z1, R, T=1.0):
@@ -451,8 +491,8 @@ def pack_scans(scans, d=2):
 # ---------------------------------------------------------------------- kernels
 @nb.njit(cache=True)
 def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_f, var_s, cwna,
-                        heading_mode, prev2, prev1, v0, phi0, out_index, pd, pg, gamma,
-                        log_lam, xs, Ps, mus, zps, Ss, gated, headings):
+                        heading_mode, reset_var, rotate_cov, prev2, prev1, v0, phi0, out_index,
+                        pd, pg, gamma, log_lam, xs, Ps, mus, zps, Ss, gated, headings):
     """Whole-run IMM-PDAF over the scans ``z[offsets[k]:offsets[k+1]]``.
 
     ``x0`` (n,), ``P0`` (n, n): the initial estimate in model coordinates
@@ -462,7 +502,10 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
     ``heading_mode``: 0 chord of the last two combined positions, 1 the chord
     one scan older (eq. 8 indexed literally; the first scan extrapolates the
     initial chord back, so it uses ``phi0``), 2 direction of the last combined
-    velocity.  ``log_lam = log(lambda)`` (``-inf`` without clutter),
+    velocity.  ``reset_var``: the reset also zeroes the ``v_s`` row and column of
+    each model's covariance; ``rotate_cov``: each model's covariance is turned
+    into the frame of the new heading (``blkdiag(I, Rot(phi - phi_prev))``)
+    before mixing.  ``log_lam = log(lambda)`` (``-inf`` without clutter),
     ``gamma`` the gate threshold.  Outputs (preallocated): ``xs`` (K, 4),
     ``Ps`` (K, 4, 4), ``mus`` (K, r), ``zps`` (K, 2), ``Ss`` (K, 2, 2),
     ``gated`` (N,), ``headings`` (K,).  Returns -1, or the scan index at which
@@ -505,6 +548,9 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
     p3x, p3y = 2.0 * p2x - p1x, 2.0 * p2y - p1y
     vcx, vcy = v0[0], v0[1]
     phi = phi0
+    phi_frame = phi0  # the heading whose frame the model covariances are in
+    B2 = np.empty((2, 2))
+    tmp = np.empty((n, n))
     for k in range(K):
         lo, hi = offsets[k], offsets[k + 1]
         m = hi - lo
@@ -521,6 +567,28 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
                 tom_transition_kernel(phi, T, Fk[j])
                 tom_process_noise_kernel(phi, T, var_f[j], var_s[j], cwna, Qk[j])
             headings[k] = phi
+            if rotate_cov:
+                dphi = phi - phi_frame
+                cd = math.cos(dphi)
+                sd = math.sin(dphi)
+                B2[0, 0] = cd
+                B2[0, 1] = -sd
+                B2[1, 0] = sd
+                B2[1, 1] = cd
+                for j in range(r):
+                    # P <- B P B^T with B = blkdiag(I, B2): rows 2..3, then columns 2..3
+                    for a in range(n):
+                        for b in range(n):
+                            tmp[a, b] = P[j, a, b]
+                    for b in range(n):
+                        P[j, 2, b] = B2[0, 0] * tmp[2, b] + B2[0, 1] * tmp[3, b]
+                        P[j, 3, b] = B2[1, 0] * tmp[2, b] + B2[1, 1] * tmp[3, b]
+                    for a in range(n):
+                        t2 = P[j, a, 2]
+                        t3 = P[j, a, 3]
+                        P[j, a, 2] = t2 * B2[0, 0] + t3 * B2[0, 1]
+                        P[j, a, 3] = t2 * B2[1, 0] + t3 * B2[1, 1]
+            phi_frame = phi
         else:
             headings[k] = np.nan
         # 2. mixing
@@ -645,6 +713,10 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
             vcx, vcy = xs[k, 2], xs[k, 3]
             for j in range(r):
                 X[j, 3] = 0.0
+                if reset_var:
+                    for a in range(n):
+                        P[j, 3, a] = 0.0
+                        P[j, a, 3] = 0.0
     return -1
 
 
@@ -660,7 +732,8 @@ def imm_pdaf_track_packed(models, z, offsets, x0, P0, R, *, pd=1.0, pg=0.99,
     ``clutter_density`` = lambda (m^-2, 0 for no clutter).  For the TOM the
     heading chord starts from ``prev_position`` (default ``x0[:2] - T v0``,
     which for a two-point initialisation is the first measurement) and
-    ``x0[:2]``.
+    ``x0[:2]``; the initial velocity ``x0[2:]`` must not be zero, because its
+    direction is the initial heading of the target-oriented frame.
     """
     if not isinstance(models, IMMModelSet):
         raise TypeError(f"models must be an IMMModelSet, got {type(models).__name__}")
@@ -678,6 +751,9 @@ def imm_pdaf_track_packed(models, z, offsets, x0, P0, R, *, pd=1.0, pg=0.99,
     Pm = models.embed @ P0 @ models.embed.T + np.diag(models.init_var)
     phi0 = 0.0
     if models.tom:
+        if x0[2] == 0.0 and x0[3] == 0.0:
+            raise ValueError("x0 must have a non-zero velocity x0[2:] for a TOM model set: "
+                             "it defines the initial heading of the target-oriented frame")
         phi0 = math.atan2(x0[3], x0[2])
         c, s = math.cos(phi0), math.sin(phi0)
         B = np.eye(4)
@@ -699,6 +775,7 @@ def imm_pdaf_track_packed(models, z, offsets, x0, P0, R, *, pd=1.0, pg=0.99,
                               models.F, models.Q, models.H, R, models.transition, models.mu0,
                               models.tom, models.T, models.u, models.var_f, models.var_s,
                               models.cwna, TOM_HEADINGS.index(models.heading),
+                              models.reset_vs_variance, models.rotate_covariance,
                               np.ascontiguousarray(prev2), x0[:2].copy(), x0[2:].copy(), phi0,
                               models.out_index, pd, pg, float(gamma),
                               math.log(lam) if lam > 0 else -math.inf,
