@@ -200,12 +200,14 @@ def _bca(theta_hat, boot, jack, level, n, method):
         # The estimate lies outside the central 1 - 2 alpha of its own bootstrap
         # distribution (a statistic such as |mean| that noise biases): the bias correction
         # of BCa is then beyond the range where its transformation argument holds and
-        # would squeeze the interval onto the estimate.  Use the percentile interval,
-        # widened to contain the estimate.
-        lo, hi = np.quantile(boot, [alpha, 1.0 - alpha])
+        # would squeeze the interval onto the estimate.  Use the basic bootstrap interval
+        # (2 theta - q_hi, 2 theta - q_lo), which, like BCa, corrects against the bias
+        # (the percentile interval would double it), widened to contain the estimate.
+        q_lo, q_hi = np.quantile(boot, [alpha, 1.0 - alpha])
+        lo, hi = 2.0 * theta_hat - q_hi, 2.0 * theta_hat - q_lo
         return Estimate(float(theta_hat), min(float(lo), float(theta_hat)),
                         max(float(hi), float(theta_hat)), level, n,
-                        method + " (percentile: bias beyond BCa's range)")
+                        method + " (basic: bias beyond BCa's range)")
     z0 = ndtri(prop)
     d = jack.mean() - jack
     den = 6.0 * (np.sum(d * d) ** 1.5)
