@@ -157,9 +157,10 @@ def test_feature_gate_rejects_wrong_shape_and_reduces_events():
         z = line(5, vy=0.0)
         rep = trk.step(dets([z, [z[0] + 1.5, z[1] + 1.0]], [VAN, BAR]))
         out[variant] = rep
-    assert out["JPDA"].n_valid == 2 and out["JPDA"].n_events == 3
+    assert out["JPDA"].n_valid == 2 and out["JPDA"].n_events == out["JPDA"].n_events_kin == 3
     for v in ("FJPDA-gate", "FJPDA"):
         assert out[v].n_valid_kin == 2 and out[v].n_valid == 1 and out[v].n_events == 2
+        assert out[v].n_events_kin == 3         # the same tracks without the feature gate
 
 
 def test_rho_weighting_prefers_matching_shape():

@@ -221,9 +221,10 @@ def render_frame(background, objects, rng, gain=1.0, noise_sd=3.0):
     ``objects`` is a sequence of ``(intensity, mask, x, y)``: a sprite and the
     image position (column x, row y) of its centre; its top-left pixel is
     ``floor(y - (h - 1) / 2 + 1/2)``, ``floor(x - (w - 1) / 2 + 1/2)`` (rounding half
-    up, so that shifting every position by whole pixels shifts the image).  Objects are pasted in
-    order over ``background``, then i.i.d. noise N(0, noise_sd^2) is added,
-    the frame is multiplied by ``gain``, clipped to [0, 255] and rounded.
+    up, so that shifting every position by whole pixels shifts the image).  Objects
+    are pasted in order over ``background``, then i.i.d. noise N(0, noise_sd^2) is
+    added, the frame is multiplied by ``gain``, rounded to whole grey levels and
+    clipped to [0, 255] (in single precision).
 
     Returns ``(frame, labels, boxes)``: ``labels`` (H, W) int array with
     object i's visible pixels set to i + 1 (0 = background), and ``boxes``
@@ -260,10 +261,13 @@ def render_frame(background, objects, rng, gain=1.0, noise_sd=3.0):
         region[sub_m] = sub_i[sub_m]
         labels[rr0:rr1, cc0:cc1][sub_m] = i + 1
         boxes[i] = (rr0, cc0, rr1, cc1)
-    img += noise_sd * rng.standard_normal((H, W), dtype=np.float32)
-    img *= gain
-    frame = np.clip(np.rint(img), 0, 255).astype(np.uint8)
-    return frame, labels, boxes
+    out = rng.standard_normal((H, W), dtype=np.float32)
+    out *= noise_sd
+    out += img
+    out *= gain
+    np.rint(out, out=out)
+    np.clip(out, 0, 255, out=out)
+    return out.astype(np.uint8), labels, boxes
 
 
 # ---------------------------------------------------------------- background subtraction
@@ -337,7 +341,7 @@ class ViBe:
         if frame.shape != self.samples.shape[:2]:
             raise ValueError(f"frame must have shape {self.samples.shape[:2]}, got {frame.shape}")
         out = np.empty(frame.shape, np.bool_)
-        u = self.rng.random(frame.shape + (2,))
+        u = self.rng.random(frame.shape + (2,), dtype=np.float32)
         _vibe_kernel(self.samples, frame, self.radius, self.min_matches, self.subsample, u,
                      self.rng, out)
         return out

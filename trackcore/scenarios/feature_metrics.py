@@ -40,7 +40,7 @@ from ..stats import Estimate, mcnemar_exact, paired_diff_ci
 
 __all__ = ["SceneMetrics", "match_tracks", "scene_metrics", "vehicle_mask_iou",
            "SceneTrial", "scene_trial", "scene_trials", "scene_run",
-           "PairedComparison", "paired_comparison"]
+           "PairedComparison", "paired_comparison", "crossing_trial"]
 
 _REPORTED = ("confirmed", "memory")
 
@@ -62,6 +62,8 @@ class SceneMetrics(NamedTuple):
     valid_removed: float     # share of kinematic validation entries removed by the feature gate
     assoc_ms: float          # mean association time per frame
     false_sources: tuple = ()  # ((source name, false tracks), ...) sorted by name
+    mean_events_kin: float = float("nan")  # events per frame of the same tracks without the
+                                           # feature gate (kinematic validation only)
 
     @property
     def tmr(self):
@@ -217,7 +219,8 @@ def scene_metrics(scene, reports, match_gate=10.0):
     return SceneMetrics(tmr_num, tmr_den, cov, len(false_ids), false_frames, idsw, frag,
                         float(mota), motp, crossing, follower_delay, float(ev.mean()),
                         int(ev.max()), (vk - vv) / vk if vk else 0.0,
-                        float(np.mean([r.assoc_ms for r in reports])), false_sources)
+                        float(np.mean([r.assoc_ms for r in reports])), false_sources,
+                        float(np.mean([r.n_events_kin for r in reports])))
 
 
 def _false_track_sources(scene, reports, false_ids, match_gate):
@@ -346,6 +349,19 @@ def scene_trials(rng, scene_name, variants_by_method, jitter=None):
         out[method] = _trial(scene, {label: run_jpda_tracker(dets, cfg)
                                      for label, cfg in variants.items()})
     return out
+
+
+def crossing_trial(rng, variants, **crossing_kwargs):
+    """One run of the measurement-level crossing: draw the detections of
+    :func:`trackcore.scenarios.feature_scenes.crossing_detections` (keyword
+    arguments passed on) and run every tracker configuration of ``variants`` on
+    them.  Returns ``{label: SceneMetrics}``."""
+    from ..trackers.jpda_tracker import run_jpda_tracker
+    from .feature_scenes import crossing_detections
+    _check_variants(variants)
+    dets, scene = crossing_detections(rng, **crossing_kwargs)
+    return {label: scene_metrics(scene, run_jpda_tracker(dets, cfg))
+            for label, cfg in variants.items()}
 
 
 class PairedComparison(NamedTuple):

@@ -72,6 +72,7 @@ __all__ = [
     "fig3_patches",
     "crossing_detections",
     "separate_blob_distance",
+    "feature_correlation_samples",
 ]
 
 N_WARMUP = 10
@@ -563,3 +564,27 @@ def separate_blob_distance(heading_b=math.radians(20.0), kind_a="van", kind_b="s
             return sep
         sep += 0.5
     raise ValueError(f"the blobs merge at every separation up to max_sep = {max_sep}")
+
+
+def feature_correlation_samples(rng, n_draws=200, headings_deg=(20.0, 90.0), p_flip=0.2):
+    """Labelled silhouette correlations for fitting a feature likelihood: for every
+    draw and every crossing heading, a van template and a sedan template (the sedan
+    rotated to the heading) are each correlated with a noisy silhouette of the same
+    vehicle (a *true* pair) and with a noisy silhouette of the other vehicle and a
+    foliage blob (*wrong* pairs), with the noise of :func:`crossing_detections`.
+    Returns ``(true_rho, wrong_rho)`` as arrays."""
+    from ..detection.image import ncc
+    rng = as_rng(rng)
+    n_draws = as_int(n_draws, "n_draws", minimum=1)
+    p_flip = as_probability(p_flip, "p_flip")
+    van = vehicle_sprite("van")[1]
+    sedans = [rotate_sprite(*vehicle_sprite("sedan"), math.radians(h))[1]
+              for h in headings_deg]
+    true_r, wrong_r = [], []
+    for _ in range(n_draws):
+        for sedan in sedans:
+            for tmpl, own, other in ((van, van, sedan), (sedan, sedan, van)):
+                true_r.append(ncc(tmpl, _jitter_mask(own, rng, p_flip)))
+                wrong_r.append(ncc(tmpl, _jitter_mask(other, rng, p_flip)))
+                wrong_r.append(ncc(tmpl, foliage_sprite(rng)[1]))
+    return np.array(true_r), np.array(wrong_r)

@@ -40,7 +40,7 @@ from scipy.stats import beta as beta_dist
 
 from ..association.gating import mahalanobis_gate_kernel
 from ..core.validation import as_array, as_bool_matrix
-from ..association.jpda import jpda_clusters, jpda_marginals
+from ..association.jpda import feasible_event_count, jpda_clusters, jpda_marginals
 from ..association.pda import pda_update_kernel
 from ..filters.kalman import cholesky_lower_kernel, kf_predict_kernel
 from ..detection.image import _mask_ncc as ncc
@@ -230,6 +230,8 @@ class FrameReport(NamedTuple):
     n_valid: int             # pairs validated by the variant (feature-gated for F*)
     deleted: tuple           # (tid, reason) deleted at this frame
     assoc_ms: float          # wall time of gating + association + update (ms)
+    n_events_kin: int = 0    # feasible events of the kinematic validation of the same
+                             # tracks (= n_events for GNN and JPDA)
 
 
 @dataclass
@@ -367,6 +369,12 @@ class JPDATracker:
                 n_events += n
                 beta[0, trk] = b[0]
                 beta[np.ix_(mea + 1, trk)] = b[1:]
+        n_events_kin = n_events
+        if c.uses_features and not np.array_equal(valid, valid_kin):
+            n_events_kin = 0
+            for trk, mea in jpda_clusters(valid_kin):
+                n_events_kin += (feasible_event_count(valid_kin[np.ix_(mea, trk)])
+                                 if len(mea) else 1)
         # state update
         hit = valid.any(axis=0) if m else np.zeros(T, bool)
         for i, tr in enumerate(self.tracks):
@@ -473,7 +481,7 @@ class JPDATracker:
                                     tr.gate[0], tr.gate[1], self.k - tr.born)
                       for tr in self.tracks)
         rep = FrameReport(self.k, snaps, int(n_events), int(valid_kin.sum()),
-                          int(valid.sum()), tuple(deleted), assoc_ms)
+                          int(valid.sum()), tuple(deleted), assoc_ms, int(n_events_kin))
         self.k += 1
         return rep
 
