@@ -187,3 +187,25 @@ def test_crossing_detections_geometry_and_merge_distance():
         crossing_detections(np.random.default_rng(0), n_frames=10, conflict=20)
     with pytest.raises(ValueError, match="pd"):
         crossing_detections(np.random.default_rng(0), pd=1.5)
+
+
+def test_extreme_arguments_are_refused_quickly():
+    """Sizes and rates that would hang or exhaust memory are refused up front."""
+    g = np.random.default_rng(0)
+    with pytest.raises(ValueError, match="n_frames"):
+        crossing_detections(g, n_frames=1e9, conflict=2)
+    with pytest.raises(ValueError, match="clutter_rate"):
+        crossing_detections(g, clutter_rate=1e300, n_frames=5, conflict=2)
+    with pytest.raises(ValueError, match="max_sep"):
+        separate_blob_distance(max_sep=1e300)
+    with pytest.raises(ValueError, match="heading_b"):
+        separate_blob_distance(heading_b=np.nan)
+    with pytest.raises(ValueError, match="jitter"):
+        render_scene("glare", g, jitter=1e300)
+    with pytest.raises(ValueError, match="jitter"):
+        matched_config("JPDA", 1e300)
+    from trackcore.scenarios.feature_scenes import feature_correlation_samples, fig3_patches
+    with pytest.raises(ValueError, match="n_draws"):
+        feature_correlation_samples(g, n_draws=1e9)
+    with pytest.raises(ValueError, match="shift"):
+        fig3_patches(g, shift=(1e300, 0.0))

@@ -288,3 +288,23 @@ def test_mask_iou():
     b = a.copy(); b[0, :2] = True
     c = a.copy(); c[0, 1:3] = True
     assert mask_iou(b, c) == pytest.approx(1 / 3)
+
+
+def test_image_tools_refuse_sizes_that_would_exhaust_memory():
+    rng = np.random.default_rng(0)
+    with pytest.raises(ValueError, match="h and w"):
+        bar_sprite(10**6, 6)
+    with pytest.raises(ValueError, match="radius"):
+        glare_sprite(1e300)
+    with pytest.raises(ValueError, match="radius"):
+        foliage_sprite(rng, radius=1e300)
+    with pytest.raises(ValueError, match="shape"):
+        terrain(rng, shape=(10**6, 10**6))
+    with pytest.raises(ValueError, match="n_samples"):
+        ViBe(np.zeros((4, 4)), rng, n_samples=10**9)
+    with pytest.raises(ValueError, match="s "):
+        ncc(np.ones((3, 3)), np.ones((3, 3)), s=10**6)
+    with pytest.raises(ValueError, match="gain"):
+        render_frame(np.zeros((5, 5)), [], rng, gain=1e300)
+    with pytest.raises(ValueError, match="A"):
+        ncc(np.full((3, 3), 1e300), np.ones((3, 3)), kind="grey")

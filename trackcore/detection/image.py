@@ -47,6 +47,8 @@ __all__ = [
 ]
 
 FRAME_SHAPE = (240, 320)
+MAX_FRAME = 4096        # largest frame or patch side accepted (px)
+MAX_SPRITE = 400        # largest sprite side accepted (px)
 
 #: sprite name -> (h, w, body intensity)
 SPRITES = {
@@ -94,6 +96,8 @@ def bar_sprite(h=22, w=6, intensity=100.0):
     """The flickering hot bar (clutter c1): an h x w rectangle."""
     h = as_int(h, "h", minimum=1)
     w = as_int(w, "w", minimum=1)
+    if max(h, w) > MAX_SPRITE:
+        raise ValueError(f"h and w must be at most {MAX_SPRITE} px, got {h} x {w}")
     intensity = as_scalar(intensity, "intensity")
     return np.full((h, w), intensity), np.ones((h, w), bool)
 
@@ -102,6 +106,8 @@ def glare_sprite(radius=3.5, intensity=180.0):
     """A bright round blob (a glint or hot spot travelling with a vehicle): the disc of
     pixels within ``radius`` px of the centre pixel."""
     radius = as_positive(radius, "radius")
+    if radius > MAX_SPRITE / 2:
+        raise ValueError(f"radius must be at most {MAX_SPRITE / 2} px, got {radius}")
     intensity = as_scalar(intensity, "intensity")
     R = int(math.floor(radius))
     yy, xx = np.mgrid[-R:R + 1, -R:R + 1]
@@ -115,6 +121,8 @@ def foliage_sprite(rng, radius=7.0, intensity=75.0, amplitude=0.35):
     the sum of the ``|a_k|`` is the amplitude (random split and phases)."""
     rng = as_rng(rng)
     radius = as_positive(radius, "radius")
+    if radius > MAX_SPRITE / 4:
+        raise ValueError(f"radius must be at most {MAX_SPRITE / 4} px, got {radius}")
     intensity = as_scalar(intensity, "intensity")
     amplitude = as_nonnegative(amplitude, "amplitude")
     if amplitude >= 1.0:
@@ -196,6 +204,8 @@ def terrain(rng, shape=FRAME_SHAPE, mean=40.0, texture_sd=8.0, road_level=30.0,
     if len(shape) != 2:
         raise ValueError(f"shape must be (rows, columns), got {shape!r}")
     H, W = (as_int(n, "shape", minimum=1) for n in shape)
+    if max(H, W) > MAX_FRAME:
+        raise ValueError(f"shape must be at most {MAX_FRAME} px on a side, got {shape!r}")
     mean = as_scalar(mean, "mean")
     texture_sd = as_nonnegative(texture_sd, "texture_sd")
     road_level = as_scalar(road_level, "road_level")
@@ -234,6 +244,8 @@ def render_frame(background, objects, rng, gain=1.0, noise_sd=3.0):
     bg = as_array(background, "background", ndim=2)
     gain = as_positive(gain, "gain")
     noise_sd = as_nonnegative(noise_sd, "noise_sd")
+    if gain > 1e3 or noise_sd > 1e3:
+        raise ValueError(f"gain and noise_sd must be at most 1000, got {gain} and {noise_sd}")
     H, W = bg.shape
     img = bg.copy()
     labels = np.zeros((H, W), np.int32)
@@ -326,6 +338,8 @@ class ViBe:
         self.rng = as_rng(rng)
         first = as_array(first_frame, "first_frame", ndim=2)
         self.n_samples = as_int(n_samples, "n_samples", minimum=1)
+        if self.n_samples > 1000:
+            raise ValueError(f"n_samples must be at most 1000, got {self.n_samples}")
         self.radius = as_positive(radius, "radius")
         self.min_matches = as_int(min_matches, "min_matches", minimum=1)
         if self.min_matches > self.n_samples:
@@ -551,6 +565,9 @@ def _check_patch(P, name, kind):
     P = as_array(P, name, ndim=2)
     if P.size == 0:
         raise ValueError(f"{name} must not be empty")
+    if np.abs(P).max() > 1e100:
+        raise ValueError(f"{name} must hold values of magnitude at most 1e100 "
+                         "(the correlation's sums would overflow)")
     return P
 
 
@@ -561,6 +578,12 @@ def _ncc_inputs(A, B, s, kind):
     A = _check_patch(A, "A", kind)
     B = _check_patch(B, "B", kind)
     s = as_int(s, "s", minimum=0)
+    if s > 64:
+        raise ValueError(f"s (the search half-width) must be at most 64 px, got {s}")
+    for name, P in (("A", A), ("B", B)):
+        if max(P.shape) > MAX_FRAME:
+            raise ValueError(f"{name} must be at most {MAX_FRAME} px on a side, "
+                             f"got {P.shape}")
     return A, B, s
 
 

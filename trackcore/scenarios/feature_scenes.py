@@ -51,7 +51,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy import ndimage
 
-from ..core.validation import as_int, as_nonnegative, as_positive, as_probability, as_rng
+from ..core.validation import (as_int, as_nonnegative, as_positive, as_probability, as_rng,
+                                as_scalar)
 from ..detection.image import (FRAME_SHAPE, ImageDetections, RunningAverage, ViBe, bar_sprite,
                                clean_mask, detect_blobs, foliage_sprite, glare_sprite,
                                render_frame, rotate_sprite, terrain, vehicle_sprite)
@@ -414,6 +415,9 @@ def fig3_patches(rng, method="vibe", shift=(1, -2)):
     rng = as_rng(rng)
     if len(shift) != 2:
         raise ValueError(f"shift must be (dx, dy), got {shift!r}")
+    shift = tuple(as_scalar(v, "shift") for v in shift)
+    if max(abs(v) for v in shift) > 20:
+        raise ValueError(f"shift must be at most 20 px per axis, got {shift!r}")
     bg = terrain(rng, horizontal_road=(90, 150), vertical_road=None)
     kinds = ("sedan", "van", "truck", "compact")
     xs = (50.0, 120.0, 200.0, 270.0)
@@ -494,16 +498,20 @@ def crossing_detections(rng, heading_b=math.radians(20.0), kind_a="van", kind_b=
     :func:`trackcore.scenarios.scene_metrics`.
     """
     rng = as_rng(rng)
-    heading_b = float(as_nonnegative(abs(heading_b), "heading_b")) * math.copysign(1, heading_b)
+    heading_b = as_scalar(heading_b, "heading_b")
     speed_a = as_positive(speed_a, "speed_a")
     speed_b = as_positive(speed_b, "speed_b")
     min_sep = as_nonnegative(min_sep, "min_sep")
     n_frames = as_int(n_frames, "n_frames", minimum=3)
+    if n_frames > 10_000:
+        raise ValueError(f"n_frames must be at most 10000, got {n_frames}")
     conflict = as_int(conflict, "conflict", minimum=0)
     if conflict >= n_frames:
         raise ValueError(f"conflict must be < n_frames = {n_frames}, got {conflict}")
     pd = as_probability(pd, "pd")
     clutter_rate = as_nonnegative(clutter_rate, "clutter_rate")
+    if clutter_rate > 100:
+        raise ValueError(f"clutter_rate must be at most 100 per frame, got {clutter_rate}")
     noise_sd = as_nonnegative(noise_sd, "noise_sd")
     p_flip = as_probability(p_flip, "p_flip")
     window = as_positive(window, "window")
@@ -536,9 +544,14 @@ def separate_blob_distance(heading_b=math.radians(20.0), kind_a="van", kind_b="s
     two silhouettes of :func:`crossing_detections` stay separate blobs after
     segmentation's 3 x 3 opening and closing at every frame of the crossing; below
     it a renderer would give one merged blob."""
+    max_sep = as_positive(max_sep, "max_sep")
+    if max_sep > 200:
+        raise ValueError(f"max_sep must be at most 200 px, got {max_sep}")
+    heading_b = as_scalar(heading_b, "heading_b")
+    speed_a = as_positive(speed_a, "speed_a")
+    speed_b = as_positive(speed_b, "speed_b")
     Ia, Ma = vehicle_sprite(kind_a)
     Ib, Mb = rotate_sprite(*vehicle_sprite(kind_b), heading_b)
-    max_sep = as_positive(max_sep, "max_sep")
 
     def separate(sep):
         xy, _ = _crossing_geometry(heading_b, speed_a, speed_b, sep, 31, 15)
@@ -576,6 +589,8 @@ def feature_correlation_samples(rng, n_draws=200, headings_deg=(20.0, 90.0), p_f
     from ..detection.image import ncc
     rng = as_rng(rng)
     n_draws = as_int(n_draws, "n_draws", minimum=1)
+    if n_draws > 10_000:
+        raise ValueError(f"n_draws must be at most 10000, got {n_draws}")
     p_flip = as_probability(p_flip, "p_flip")
     van = vehicle_sprite("van")[1]
     sedans = [rotate_sprite(*vehicle_sprite("sedan"), math.radians(h))[1]

@@ -180,8 +180,8 @@ def matched_config(variant="FJPDA", jitter=0.0, **overrides):
     the gate-size threshold G_th = 20 s (at ``jitter=0`` the defaults).  Other
     fields are the defaults unless given in ``overrides``."""
     if isinstance(jitter, bool) or not isinstance(jitter, numbers.Real) \
-            or not math.isfinite(jitter) or jitter < 0:
-        raise ValueError(f"jitter must be a finite number >= 0, got {jitter!r}")
+            or not math.isfinite(jitter) or not 0 <= jitter <= 1e3:
+        raise ValueError(f"jitter must be a number in [0, 1000] px, got {jitter!r}")
     s = math.sqrt(1.0 + float(jitter) ** 2)
     kw = dict(variant=variant, r_std=s, pair_margin=3.0 * s, gate_max=20.0 * s)
     kw.update(overrides)
