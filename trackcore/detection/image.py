@@ -345,7 +345,9 @@ class ViBe:
         if self.min_matches > self.n_samples:
             raise ValueError("min_matches must not exceed n_samples")
         self.subsample = as_int(subsample, "subsample", minimum=1)
-        self.samples = np.empty(first.shape + (self.n_samples,))
+        # float32 samples halve the memory traffic of the per-pixel loop; grey levels of
+        # 8-bit frames are stored exactly
+        self.samples = np.empty(first.shape + (self.n_samples,), np.float32)
         offsets = self.rng.integers(-1, 2, first.shape + (self.n_samples, 2), dtype=np.int8)
         _vibe_init_kernel(self.samples, first, offsets)
 
