@@ -5,8 +5,8 @@ from hypothesis import given, settings, strategies as st
 
 from trackcore.detection.image import (
     SPRITES, RunningAverage, ViBe, bar_sprite, clean_mask, detect_blobs, foliage_sprite,
-    mask_iou, ncc, ncc_matrix, ncc_reference, render_frame, rotate_sprite, terrain,
-    vehicle_sprite,
+    glare_sprite, mask_iou, ncc, ncc_matrix, ncc_reference, render_frame, rotate_sprite,
+    terrain, vehicle_sprite,
 )
 
 
@@ -16,8 +16,7 @@ def test_ncc_equals_direct_loop():
     for _ in range(25):
         A = rng.normal(50, 20, rng.integers(3, 15, 2))
         B = rng.normal(50, 20, rng.integers(3, 15, 2))
-        for kind in ("mask", "grey"):
-            assert abs(ncc(A, B, kind=kind) - ncc_reference(A, B, kind=kind)) < 1e-12
+        assert abs(ncc(A, B, kind="grey") - ncc_reference(A, B, kind="grey")) < 1e-12
         Am, Bm = A > 50, B > 50
         assert abs(ncc(Am, Bm) - ncc_reference(Am, Bm)) < 1e-12
 
@@ -80,8 +79,84 @@ def test_ncc_bad_input():
         ncc(np.ones((2, 2)), np.full((2, 2), np.nan))
 
 
+def test_ncc_rejects_non_binary_masks_and_checks_the_reference():
+    """kind="mask" needs 0/1 or boolean patches; ncc_reference checks its inputs too."""
+    for f in (ncc, ncc_reference):
+        with pytest.raises(ValueError, match="A"):
+            f(np.full((3, 3), 2.0), np.ones((3, 3)))
+        with pytest.raises(ValueError, match="B"):
+            f(np.ones((3, 3)), np.full((3, 3), np.nan))
+        with pytest.raises(ValueError, match="kind"):
+            f(np.ones((3, 3)), np.ones((3, 3)), kind="rgb")
+        with pytest.raises(ValueError, match="s"):
+            f(np.ones((3, 3)), np.ones((3, 3)), s=-2)
+        with pytest.raises(TypeError, match="A"):
+            f("abc", np.ones((3, 3)), kind="grey")
+    with pytest.raises(ValueError, match="templates"):
+        ncc_matrix(np.ones((3, 3)), [np.ones((3, 3))])
+
+
+def test_image_tools_reject_bad_masks_and_parameters():
+    bad = np.ones((5, 5))
+    bad[2, 2] = 2.0
+    nan = np.ones((5, 5))
+    nan[1, 1] = np.nan
+    for m in (bad, nan):
+        with pytest.raises(ValueError, match="mask"):
+            clean_mask(m)
+        with pytest.raises(ValueError, match="mask"):
+            detect_blobs(m, np.zeros((5, 5)))
+        with pytest.raises(ValueError, match="a"):
+            mask_iou(m, np.ones((5, 5), bool))
+        with pytest.raises(ValueError, match="mask"):
+            rotate_sprite(np.ones((5, 5)), m, 0.3)
+    rng = np.random.default_rng(0)
+    bg = np.zeros((20, 20))
+    with pytest.raises(ValueError, match="gain"):
+        render_frame(bg, [], rng, gain=np.nan)
+    with pytest.raises(ValueError, match="noise_sd"):
+        render_frame(bg, [], rng, noise_sd=-1.0)
+    with pytest.raises(ValueError, match="mask"):
+        render_frame(bg, [(np.ones((5, 5)), bad, 5.0, 5.0)], rng)
+    with pytest.raises(ValueError, match="x"):
+        render_frame(bg, [(np.ones((5, 5)), np.ones((5, 5), bool), np.nan, 5.0)], rng)
+    with pytest.raises(ValueError, match="radius"):
+        foliage_sprite(rng, radius=np.nan)
+    with pytest.raises(ValueError, match="intensity"):
+        foliage_sprite(rng, intensity=np.nan)
+    with pytest.raises(ValueError, match="amplitude"):
+        foliage_sprite(rng, amplitude=1.5)
+    I, M = vehicle_sprite("van")
+    with pytest.raises(ValueError, match="heading"):
+        rotate_sprite(I, M, np.nan)
+    with pytest.raises(ValueError, match="intensity"):
+        bar_sprite(intensity=np.inf)
+    with pytest.raises(ValueError, match="radius"):
+        glare_sprite(radius=0.0)
+    with pytest.raises(ValueError, match="texture_sd"):
+        terrain(rng, texture_sd=np.nan)
+
+
+def test_render_positions_round_half_up():
+    """Shifting every position by whole pixels shifts the rendered labels (no
+    round-half-to-even flips), so camera jitter keeps the relative geometry."""
+    I, M = vehicle_sprite("sedan")            # 12 x 24: centre offsets end in .5
+    bg = np.zeros((60, 80))
+    rng = np.random.default_rng(0)
+    ref = render_frame(bg, [(I, M, 30.0, 20.0)], rng, noise_sd=0.0)[1]
+    for dx, dy in ((1, 0), (0, 1), (3, -2)):
+        lab = render_frame(bg, [(I, M, 30.0 + dx, 20.0 + dy)], rng, noise_sd=0.0)[1]
+        assert np.array_equal(np.roll(ref, (dy, dx), axis=(0, 1)), lab)
+
+
+def test_glare_sprite():
+    I, M = glare_sprite(3.5, 200.0)
+    assert M.shape == (7, 7) and M.sum() == 37 and I.max() == 200.0
+    assert max(ncc(M, vehicle_sprite(k)[1]) for k in ("sedan", "van", "truck")) < 0.3
+
+
 def test_silhouettes_separate_vehicle_types():
-    masks = [vehicle_sprite(k)[1] for k in SPRITES]
+    masks = [vehicle_sprite(k)[1] for k in ("sedan", "van", "truck", "compact")]
     rho = ncc_matrix(masks, masks)
     assert np.allclose(np.diag(rho), 1.0)
     off = rho[~np.eye(4, dtype=bool)]
@@ -213,3 +288,23 @@ def test_mask_iou():
     b = a.copy(); b[0, :2] = True
     c = a.copy(); c[0, 1:3] = True
     assert mask_iou(b, c) == pytest.approx(1 / 3)
+
+
+def test_image_tools_refuse_sizes_that_would_exhaust_memory():
+    rng = np.random.default_rng(0)
+    with pytest.raises(ValueError, match="h and w"):
+        bar_sprite(10**6, 6)
+    with pytest.raises(ValueError, match="radius"):
+        glare_sprite(1e300)
+    with pytest.raises(ValueError, match="radius"):
+        foliage_sprite(rng, radius=1e300)
+    with pytest.raises(ValueError, match="shape"):
+        terrain(rng, shape=(10**6, 10**6))
+    with pytest.raises(ValueError, match="n_samples"):
+        ViBe(np.zeros((4, 4)), rng, n_samples=10**9)
+    with pytest.raises(ValueError, match="s "):
+        ncc(np.ones((3, 3)), np.ones((3, 3)), s=10**6)
+    with pytest.raises(ValueError, match="gain"):
+        render_frame(np.zeros((5, 5)), [], rng, gain=1e300)
+    with pytest.raises(ValueError, match="A"):
+        ncc(np.full((3, 3), 1e300), np.ones((3, 3)), kind="grey")

@@ -4,11 +4,12 @@ import numpy as np
 import pytest
 
 from trackcore.detection.image import ImageDetections, vehicle_sprite
-from trackcore.scenarios.feature_metrics import (SceneMetrics, match_tracks, scene_metrics,
-                                                 wilson_interval)
+from trackcore.scenarios.feature_metrics import (SceneMetrics, match_tracks, paired_comparison,
+                                                 scene_metrics)
 from trackcore.scenarios.feature_scenes import N_WARMUP, render_scene, scene_layout, segment_scene
 from trackcore.trackers.jpda_tracker import (FrameReport, JPDATracker, JPDATrackerConfig,
-                                             TrackSnapshot, run_jpda_tracker)
+                                             TrackSnapshot, matched_config, run_jpda_tracker,
+                                             steady_state_gate)
 
 VAN = vehicle_sprite("van")[1]
 SEDAN = vehicle_sprite("sedan")[1]
@@ -46,7 +47,7 @@ def test_tsi_and_confirmation_timeline():
 
 
 def test_tsi_feature_ablation_pairs_only_similar_shapes():
-    """tsi_feature=True (spec section 9 ablation): a TSI pair needs
+    """tsi_feature=True (an ablation): a TSI pair needs
     rho(z_p, z_c) >= c_I; the default pairs on distance alone."""
     for tsi_feature, expect in ((False, ["tentative"]), (True, [])):
         trk = JPDATracker(JPDATrackerConfig(variant="FJPDA", tsi_feature=tsi_feature))
@@ -85,15 +86,20 @@ def test_tentative_deleted_on_miss_and_reserved_on_second_miss():
     assert rep.deleted == ((1, "miss"),)
 
 
-def test_confirmed_memory_cycle_and_memory_deletion():
-    trk = JPDATracker(JPDATrackerConfig(variant="JPDA"))
+@pytest.mark.parametrize("memory", [1, 2, 4])
+def test_confirmed_memory_cycle_and_memory_deletion(memory):
+    """A confirmed track coasts ``memory_frames`` missed frames in memory and is
+    deleted at the next consecutive miss (default 2; 1 = the second miss)."""
+    trk = JPDATracker(JPDATrackerConfig(variant="JPDA", memory_frames=memory))
     for k in range(5):
         trk.step(dets([line(k)]))
     assert statuses(trk.step(dets([]))) == {1: "memory"}
-    assert statuses(trk.step(dets([line(7)]))) == {1: "confirmed"}
-    assert statuses(trk.step(dets([]))) == {1: "memory"}
+    assert statuses(trk.step(dets([line(6)]))) == {1: "confirmed"}
+    for _ in range(memory):
+        assert statuses(trk.step(dets([]))) == {1: "memory"}
     rep = trk.step(dets([]))
     assert rep.deleted == ((1, "miss"),) and rep.tracks == ()
+    assert JPDATrackerConfig().memory_frames == 2
 
 
 def test_gate_size_deletion():
@@ -151,9 +157,10 @@ def test_feature_gate_rejects_wrong_shape_and_reduces_events():
         z = line(5, vy=0.0)
         rep = trk.step(dets([z, [z[0] + 1.5, z[1] + 1.0]], [VAN, BAR]))
         out[variant] = rep
-    assert out["JPDA"].n_valid == 2 and out["JPDA"].n_events == 3
+    assert out["JPDA"].n_valid == 2 and out["JPDA"].n_events == out["JPDA"].n_events_kin == 3
     for v in ("FJPDA-gate", "FJPDA"):
         assert out[v].n_valid_kin == 2 and out[v].n_valid == 1 and out[v].n_events == 2
+        assert out[v].n_events_kin == 3         # the same tracks without the feature gate
 
 
 def test_rho_weighting_prefers_matching_shape():
@@ -179,97 +186,203 @@ def test_gnn_variant_and_position_only_ablation():
 
 @pytest.mark.parametrize("kwargs", [dict(variant="PDA"), dict(pd=1.5), dict(gamma=-1.0),
                                     dict(model="ca"), dict(c_I=2.0), dict(dup_frames=0),
-                                    dict(lam=0.0)])
+                                    dict(lam=0.0), dict(q_rw=np.nan), dict(pair_margin=-1.0),
+                                    dict(dup_frames=np.nan), dict(dup_frames=2.5),
+                                    dict(memory_frames=0), dict(sigma_a=np.inf),
+                                    dict(pd=np.nan), dict(c_I=np.nan), dict(tsi_from="all"),
+                                    dict(rho_weight="softmax"),
+                                    dict(feature_lr=(1.0, np.nan, 1.0, 1.0))])
 def test_bad_config(kwargs):
     with pytest.raises(ValueError, match=list(kwargs)[0]):
         JPDATrackerConfig(**kwargs)
 
 
+@pytest.mark.parametrize("kwargs", [dict(r_std="1"), dict(duplicate_deletion=1),
+                                    dict(template_guard=None), dict(memory_frames=True)])
+def test_bad_config_types(kwargs):
+    with pytest.raises(TypeError, match=list(kwargs)[0]):
+        JPDATrackerConfig(**kwargs)
+
+
+def test_q_rw_and_pair_margin_reproducers():
+    with pytest.raises(ValueError, match="q_rw"):
+        JPDATrackerConfig(q_rw=np.nan, pair_margin=-1)
+    with pytest.raises(ValueError, match="dup_frames"):
+        JPDATrackerConfig(dup_frames=np.nan)
+
+
+def test_nan_detection_is_rejected_not_dropped():
+    frames = [dets([line(k)]) for k in range(4)]
+    frames[2] = dets([line(2), [np.nan, 5.0]])
+    with pytest.raises(ValueError, match=r"detections\[2\]\.z"):
+        run_jpda_tracker(frames, JPDATrackerConfig(variant="JPDA"))
+    bad_mask = dets([line(0)], [np.full((3, 3), 2)])
+    with pytest.raises(ValueError, match="masks"):
+        run_jpda_tracker([bad_mask])
+    with pytest.raises(TypeError, match="config"):
+        run_jpda_tracker(frames[:1], config={"variant": "JPDA"})
+    with pytest.raises(TypeError, match="detections"):
+        run_jpda_tracker([np.zeros((1, 2))])
+
+
+def test_matched_config_and_steady_state_gate():
+    c0 = matched_config("JPDA", 0.0)
+    assert c0 == JPDATrackerConfig(variant="JPDA")
+    c5 = matched_config("FJPDA", 5.0, memory_frames=1)
+    s = np.sqrt(26.0)
+    assert c5.r_std == pytest.approx(s) and c5.pair_margin == pytest.approx(3 * s)
+    assert c5.gate_max == pytest.approx(20 * s) and c5.memory_frames == 1
+    # the steady-state gate against the closed form of the DARE solved by scipy
+    from scipy.linalg import solve_discrete_are
+    trk = JPDATracker(c5)
+    P = solve_discrete_are(trk.F.T, trk.H.T, trk.Q, trk.R)
+    S = trk.H @ P @ trk.H.T + trk.R
+    assert steady_state_gate(c5) == pytest.approx(np.sqrt(9.21 * np.linalg.eigvalsh(S)[-1]),
+                                                  rel=1e-8)
+    assert steady_state_gate(c0) < steady_state_gate(matched_config("JPDA", 3.0)) \
+        < steady_state_gate(c5)
+    with pytest.raises(ValueError, match="jitter"):
+        matched_config("JPDA", -1.0)
+
+
 def test_mismatched_masks_raise():
     with pytest.raises(ValueError, match="masks"):
         JPDATracker().step(ImageDetections(np.zeros((2, 2)), None, None, [VAN], [VAN]))
+    with pytest.raises(ValueError, match=r"z must have shape"):
+        JPDATracker().step(ImageDetections(np.zeros((2, 3)), None, None, [VAN] * 2, [VAN] * 2))
 
 
-# ---------------------------------------------------------------- scenes and metrics
-def test_scene_s2a_render_segment_track():
-    rng = np.random.default_rng(0)
-    sc = render_scene("S2a", rng)
-    objs, K, conflict, pair = scene_layout("S2a")
-    assert sc.frames.shape == (N_WARMUP + K, 240, 320) and sc.frames.dtype == np.uint8
-    assert sc.xy.shape == (K, 2, 2) and conflict == 43
-    assert np.all(sc.labels[:N_WARMUP] == 0)                 # vehicle-free warm-up
-    d = np.hypot(*(sc.xy[:, 0] - sc.xy[:, 1]).T)
-    assert np.nanmin(d) >= 22.0
-    dets_, masks = segment_scene(sc, "running_average")
-    assert len(dets_) == K and masks.shape == (K, 240, 320)
-    assert np.mean([len(x.z) == sc.present[k].sum() for k, x in enumerate(dets_)]) > 0.9
-    reps = run_jpda_tracker(dets_, JPDATrackerConfig(variant="FJPDA"))
-    m = scene_metrics(sc, reps)
-    assert isinstance(m, SceneMetrics)
-    assert m.tmr > 0.9 and m.crossing == "kept" and m.false_tracks == 0
+# ---------------------------------------------------------------- open readings
+def _van_track(variant, **cfg):
+    trk = JPDATracker(JPDATrackerConfig(variant=variant, **cfg))
+    for k in range(5):
+        trk.step(dets([line(k, vy=0.0)]))
+    return trk
 
 
-@pytest.mark.parametrize("name", ["S1", "S3"])
-def test_clutter_stays_a_separate_blob(name):
-    """Clutter beside a lane never touches a vehicle (>= 3 px between masks),
-    so segmentation gives the vehicle its own blob while the clutter is on."""
-    from scipy import ndimage
-    sc = render_scene(name, np.random.default_rng(7))
-    veh = np.nonzero(sc.is_vehicle)[0]
-    clutter = np.nonzero(~sc.is_vehicle)[0]
-    gaps = []
-    for k in range(sc.xy.shape[0]):
-        lab = sc.labels[N_WARMUP + k]
-        for i in veh:
-            if not sc.present[k, i]:
-                continue
-            dist = ndimage.distance_transform_cdt(lab != i + 1, metric="taxicab")
-            for c in clutter:
-                if sc.present[k, c]:
-                    gaps.append(dist[lab == c + 1].min() - 1)
-    assert len(gaps) > 10 and min(gaps) >= 3
-    dets_, _ = segment_scene(sc, "running_average")
-    both = [k for k in range(len(dets_)) if sc.visible[k, veh[0]] and sc.present[k, clutter].any()]
-    err = [np.hypot(*(dets_[k].z - sc.xy[k, veh[0]]).T).min() for k in both]
-    assert len(both) > 5 and np.median(err) < 1.0 and max(err) < 3.0
+def test_tsi_reading_outside_gates_vs_unvalidated():
+    """A bar inside the van's kinematic gate but rejected by the feature gate starts
+    no track under the default reading; under tsi_from="unvalidated" it can."""
+    for tsi_from, expect_new in (("outside_gates", 0), ("unvalidated", 1)):
+        trk = _van_track("FJPDA", tsi_from=tsi_from)
+        for k in (5, 6):
+            z = line(k, vy=0.0)
+            rep = trk.step(dets([z, [z[0] + 1.5, z[1] + 1.5]], [VAN, BAR]))
+        new = [s for s in rep.tracks if s.tid != 1]
+        assert len(new) == expect_new
+    # plain JPDA: both readings are the same (the bar is validated by the van)
+    for tsi_from in ("outside_gates", "unvalidated"):
+        trk = _van_track("JPDA", tsi_from=tsi_from)
+        for k in (5, 6):
+            z = line(k, vy=0.0)
+            rep = trk.step(dets([z, [z[0] + 1.5, z[1] + 1.5]], [VAN, BAR]))
+        assert [s.tid for s in rep.tracks] == [1]
 
 
-def test_scene_names_and_bad_input():
-    with pytest.raises(ValueError, match="name"):
-        scene_layout("S9")
-    sc = render_scene("S2a", np.random.default_rng(1))
-    with pytest.raises(ValueError, match="method"):
-        segment_scene(sc, "median")
+def test_normalised_rho_weighting_matches_enumeration():
+    """rho_weight="normalised": eq (6) with rho / sum over the track's validated
+    measurements, checked against jpda_marginals on transformed likelihoods."""
+    from trackcore.association import jpda_marginals
+    trk_raw = _van_track("FJPDA", c_I=0.3)
+    trk_nrm = _van_track("FJPDA", c_I=0.3, rho_weight="normalised")
+    z = line(5, vy=0.0)
+    frame = dets([[z[0], z[1] + 1.2], [z[0], z[1] - 1.2]], [VAN, SEDAN])
+    x_raw = (trk_raw.step(frame), trk_raw.tracks[0].x.copy())[1]
+    x_nrm = (trk_nrm.step(frame), trk_nrm.tracks[0].x.copy())[1]
+    # both pull towards the van-shaped measurement (+1.2 px), by different amounts
+    assert x_raw[1] - z[1] > 0.05 and x_nrm[1] - z[1] > 0.05
+    assert abs(x_raw[1] - x_nrm[1]) > 1e-6
+    rho = np.array([1.0, float(__import__("trackcore.detection.image", fromlist=["ncc"])
+                               .ncc(VAN, SEDAN))])
+    lik = np.array([[0.02], [0.02]])
+    b_n, _ = jpda_marginals(lik * (rho / rho.sum())[:, None], np.ones((2, 1), bool), 0.9, 1e-5)
+    b_r, _ = jpda_marginals(lik, np.ones((2, 1), bool), 0.9, 1e-5, rho=rho[:, None], c_I=0.3)
+    # the normalisation changes detected-vs-missed odds, not the ratio between measurements
+    assert b_n[1, 0] / b_n[2, 0] == pytest.approx(b_r[1, 0] / b_r[2, 0], rel=1e-12)
+    assert b_n[0, 0] != pytest.approx(b_r[0, 0])
 
 
+def test_template_drift_guard():
+    """The template follows the measurement it was updated with (beta >= 0.5 and
+    rho >= c_I); with the drift guard the new mask must also correlate >= c_I with
+    the track's first template.  Van -> sedan -> compact: rho(van, sedan) = 0.72 and
+    rho(sedan, compact) = 0.69 pass, rho(van, compact) = 0.52 does not, so the
+    unguarded template drifts to the compact and the guarded one stops at the sedan."""
+    from trackcore.detection.image import ncc
+    compact = vehicle_sprite("compact")[1]
+    assert ncc(VAN, SEDAN) >= 0.6 and ncc(SEDAN, compact) >= 0.6 > ncc(VAN, compact)
+    out = {}
+    for guard in (True, False):
+        trk = _van_track("FJPDA", template_guard=guard)
+        t0 = trk.tracks[0].template0
+        for k, M in zip((5, 6, 7, 8), (SEDAN, SEDAN, compact, compact)):
+            trk.step(dets([line(k, vy=0.0)], [M]))
+        assert trk.tracks[0].template0 is t0
+        out[guard] = trk.tracks[0].template
+    assert out[False] is compact
+    assert out[True] is SEDAN
+
+
+def test_template_update_off_keeps_first_template():
+    trk = _van_track("FJPDA", template_update=False)
+    t0 = trk.tracks[0].template
+    trk.step(dets([line(5, vy=0.0)], [SEDAN]))
+    assert trk.tracks[0].template is t0
+
+
+# ---------------------------------------------------------------- metrics
 def _fake_reports(tracks_per_frame):
     return [FrameReport(k, tuple(TrackSnapshot(tid, st, x, y, 1.0, 1.0, 0)
                                  for tid, st, x, y in tr), 1, 0, 0, (), 0.0)
             for k, tr in enumerate(tracks_per_frame)]
 
 
-def test_metrics_perfect_swap_and_false_track():
-    K = 60
+def _pair_scene(K=60):
     xy = np.zeros((K, 2, 2))
     xy[:, 0, 0] = np.arange(K)
     xy[:, 1, 0] = np.arange(K) + 50.0
     present = np.ones((K, 2), bool)
     sc = render_scene("S2a", np.random.default_rng(2))._replace(
-        xy=xy, present=present, visible=present, conflict_frame=30, pair=(0, 1))
+        xy=xy, present=present, visible=present, conflict_frame=30, pair=(0, 1),
+        score_window=(20, 40))
+    return sc, xy, present
+
+
+def test_metrics_perfect_swap_and_false_track():
+    K = 60
+    sc, xy, present = _pair_scene(K)
     perfect = _fake_reports([[(1, "confirmed", xy[k, 0, 0], 0.0), (2, "confirmed", xy[k, 1, 0], 0.0)]
                              for k in range(K)])
     m = scene_metrics(sc, perfect)
     assert m.tmr == 1.0 and m.crossing == "kept" and m.id_switches == 0 and m.false_tracks == 0
+    assert m.kept and not m.swapped and m.events_per_frame == m.mean_events == 1.0
     assert m.mota == pytest.approx(1.0)
     swapped = _fake_reports([[(1 if k < 30 else 2, "confirmed", xy[k, 0, 0], 0.0),
                               (2 if k < 30 else 1, "confirmed", xy[k, 1, 0], 0.0),
                               (7, "confirmed", 200.0, 200.0)] for k in range(K)])
     m = scene_metrics(sc, swapped)
-    assert m.crossing == "swap" and m.id_switches == 2 and m.false_tracks == 1
+    assert m.crossing == "swap" and m.swapped and m.id_switches == 2 and m.false_tracks == 1
     assert m.false_sources == (("other", 1),)
     assert m.tmr == pytest.approx((27 * 2) / (57 * 2))
     ids, _ = match_tracks(xy, present, swapped)
     assert ids[0, 0] == 1 and ids[40, 0] == 2
+    # the score window decides: a swap after it is not scored
+    late = _fake_reports([[(1 if k < 45 else 2, "confirmed", xy[k, 0, 0], 0.0),
+                           (2 if k < 45 else 1, "confirmed", xy[k, 1, 0], 0.0)] for k in range(K)])
+    assert scene_metrics(sc, late).crossing == "kept"
+
+
+def test_match_tracks_bad_shapes_raise_value_error():
+    sc, xy, present = _pair_scene(10)
+    reps = _fake_reports([[(1, "confirmed", 0.0, 0.0)]] * 10)
+    with pytest.raises(ValueError, match="truth_xy"):
+        match_tracks(xy[:, :, :1], present, reps)
+    with pytest.raises(ValueError, match="truth_present"):
+        match_tracks(xy, present.astype(float), reps)
+    with pytest.raises(ValueError, match="reports"):
+        match_tracks(xy, present, reps[:5])
+    with pytest.raises(ValueError, match="match_gate"):
+        match_tracks(xy, present, reps, match_gate=-1.0)
 
 
 def test_false_tracks_attributed_to_nearest_clutter_object():
@@ -288,61 +401,32 @@ def test_false_tracks_attributed_to_nearest_clutter_object():
     assert m.tmr == 1.0
 
 
-def test_wilson_interval():
-    lo, hi = wilson_interval(5, 10)
-    assert lo == pytest.approx(0.2366, abs=1e-4) and hi == pytest.approx(0.7634, abs=1e-4)
-    lo, hi = wilson_interval(50, 50)
-    assert hi == pytest.approx(1.0) and lo == pytest.approx(0.9287, abs=1e-4)
-    with pytest.raises(ValueError):
-        wilson_interval(3, 2)
-
-
-def test_vehicle_mask_iou_perfect_and_empty():
+def test_vehicle_mask_iou_perfect_empty_and_bad_shapes():
     from trackcore.scenarios.feature_metrics import vehicle_mask_iou
     sc = render_scene("S2a", np.random.default_rng(3))
     truth = sc.labels[N_WARMUP:] > 0
     v = vehicle_mask_iou(sc, truth)
     assert len(v) == sc.visible.sum() and np.allclose(v, 1.0)
     assert np.all(vehicle_mask_iou(sc, np.zeros_like(truth)) == 0.0)
+    with pytest.raises(ValueError, match="masks"):
+        vehicle_mask_iou(sc, truth[:5])
+    with pytest.raises(ValueError, match="masks"):
+        vehicle_mask_iou(sc, truth[:, :10])
+    with pytest.raises(ValueError, match="masks"):
+        vehicle_mask_iou(sc, truth.astype(float))
 
 
-def test_crossing_detections_geometry_and_lr_variant():
-    import math
-    from trackcore.scenarios.feature_scenes import crossing_detections
-    dets_, sc = crossing_detections(np.random.default_rng(4), heading_b=math.radians(20),
-                                    min_sep=3.0, pd=1.0, clutter_rate=0.0)
-    d = np.hypot(*(sc.xy[:, 0] - sc.xy[:, 1]).T)
-    assert np.argmin(d) == sc.conflict_frame and d.min() == pytest.approx(3.0)
-    assert all(len(x.z) == 2 and len(x.masks) == 2 for x in dets_)
-    cfg = JPDATrackerConfig(variant="FJPDA", feature_lr=(20.0, 1.5, 5.0, 4.0))
-    reps = run_jpda_tracker(dets_[:12], cfg)
-    assert sum(s.status == "confirmed" for s in reps[-1].tracks) >= 1
-    with pytest.raises(ValueError, match="feature_lr"):
-        JPDATrackerConfig(feature_lr=(1.0, 2.0))
-
-
-def test_scene_trial_runs_variants_on_shared_detections():
-    from trackcore.scenarios.feature_metrics import scene_trial
-    cfgs = {"JPDA": JPDATrackerConfig(variant="JPDA"), "FJPDA": JPDATrackerConfig(variant="FJPDA")}
-    t = scene_trial(np.random.default_rng(5), "S2a", cfgs, method="running_average")
-    assert set(t.metrics) == set(cfgs) and t.truth_xy.shape == (80, 2, 2)
-    assert len(t.positions["JPDA"]) == 80
-    assert all(p.shape[1] == 2 for p in t.positions["FJPDA"])
-    t2 = scene_trial(np.random.default_rng(5), "S2a", cfgs, method="running_average")
-    # reproducible from the generator (all but the wall-clock association time)
-    assert {k: m._replace(assoc_ms=0.0) for k, m in t2.metrics.items()} == \
-        {k: m._replace(assoc_ms=0.0) for k, m in t.metrics.items()}
-
-
-def test_scene_trials_share_one_rendering_across_segmentations():
-    from trackcore.scenarios.feature_metrics import scene_trial, scene_trials
-    cfgs = {"JPDA": JPDATrackerConfig(variant="JPDA")}
-    both = scene_trials(np.random.default_rng(7), "S1",
-                        {"vibe": cfgs, "running_average": cfgs})
-    for method in ("vibe", "running_average"):
-        one = scene_trial(np.random.default_rng(7), "S1", cfgs, method=method)
-        assert one.metrics["JPDA"]._replace(assoc_ms=0.0) == \
-            both[method].metrics["JPDA"]._replace(assoc_ms=0.0)
-        assert np.array_equal(one.truth_xy, both[method].truth_xy, equal_nan=True)
-    with pytest.raises(ValueError, match="variants_by_method"):
-        scene_trials(np.random.default_rng(7), "S1", {})
+def test_paired_comparison():
+    x = np.array([0, 0, 1, 0, 0, 0, 0, 0, 0, 0] * 5, float)      # A: fewer events
+    y = np.array([1, 1, 1, 0, 1, 1, 0, 1, 1, 0] * 5, float)
+    c = paired_comparison(x, y, ("FJPDA", "JPDA"))
+    assert c.verdict == "FJPDA better" and c.a_better == 30 and c.b_better == 0
+    assert c.diff.hi < 0 and c.p_sign < 1e-8 and c.mean_a == pytest.approx(0.1)
+    c = paired_comparison(x, y, ("FJPDA", "JPDA"), lower_is_better=False)
+    assert c.verdict == "JPDA better"
+    c = paired_comparison(x, x, ("A", "B"))
+    assert c.verdict == "tie" and c.p_sign == 1.0
+    with pytest.raises(ValueError, match="paired"):
+        paired_comparison(x, y[:-1])
+    with pytest.raises(ValueError, match="x"):
+        paired_comparison(np.full(5, np.nan), np.zeros(5))

@@ -23,12 +23,14 @@ import numba as nb
 import numpy as np
 from scipy import ndimage
 
-from ..core.validation import as_array, as_int, as_nonnegative, as_positive, as_rng
+from ..core.validation import (as_array, as_bool_matrix, as_int, as_nonnegative, as_positive,
+                                as_rng, as_scalar)
 
 __all__ = [
     "SPRITES",
     "vehicle_sprite",
     "bar_sprite",
+    "glare_sprite",
     "foliage_sprite",
     "rotate_sprite",
     "terrain",
@@ -45,6 +47,8 @@ __all__ = [
 ]
 
 FRAME_SHAPE = (240, 320)
+MAX_FRAME = 4096        # largest frame or patch side accepted (px)
+MAX_SPRITE = 400        # largest sprite side accepted (px)
 
 #: sprite name -> (h, w, body intensity)
 SPRITES = {
@@ -52,7 +56,14 @@ SPRITES = {
     "van": (14, 30, 62.0),
     "truck": (16, 40, 70.0),
     "compact": (10, 18, 50.0),
+    "suv": (16, 20, 60.0),
+    "hatchback": (14, 18, 57.0),
 }
+
+
+def _as_mask(mask, name):
+    """A 2-D boolean mask; entries must be 0/1 or booleans (NaN, 2, ... are errors)."""
+    return as_bool_matrix(mask, name)
 
 
 # ---------------------------------------------------------------- sprites
@@ -85,7 +96,23 @@ def bar_sprite(h=22, w=6, intensity=100.0):
     """The flickering hot bar (clutter c1): an h x w rectangle."""
     h = as_int(h, "h", minimum=1)
     w = as_int(w, "w", minimum=1)
-    return np.full((h, w), float(intensity)), np.ones((h, w), bool)
+    if max(h, w) > MAX_SPRITE:
+        raise ValueError(f"h and w must be at most {MAX_SPRITE} px, got {h} x {w}")
+    intensity = as_scalar(intensity, "intensity")
+    return np.full((h, w), intensity), np.ones((h, w), bool)
+
+
+def glare_sprite(radius=3.5, intensity=180.0):
+    """A bright round blob (a glint or hot spot travelling with a vehicle): the disc of
+    pixels within ``radius`` px of the centre pixel."""
+    radius = as_positive(radius, "radius")
+    if radius > MAX_SPRITE / 2:
+        raise ValueError(f"radius must be at most {MAX_SPRITE / 2} px, got {radius}")
+    intensity = as_scalar(intensity, "intensity")
+    R = int(math.floor(radius))
+    yy, xx = np.mgrid[-R:R + 1, -R:R + 1]
+    mask = np.hypot(xx, yy) <= radius
+    return np.where(mask, intensity, 0.0), mask
 
 
 def foliage_sprite(rng, radius=7.0, intensity=75.0, amplitude=0.35):
@@ -94,6 +121,12 @@ def foliage_sprite(rng, radius=7.0, intensity=75.0, amplitude=0.35):
     the sum of the ``|a_k|`` is the amplitude (random split and phases)."""
     rng = as_rng(rng)
     radius = as_positive(radius, "radius")
+    if radius > MAX_SPRITE / 4:
+        raise ValueError(f"radius must be at most {MAX_SPRITE / 4} px, got {radius}")
+    intensity = as_scalar(intensity, "intensity")
+    amplitude = as_nonnegative(amplitude, "amplitude")
+    if amplitude >= 1.0:
+        raise ValueError(f"amplitude must be < 1 (a positive radius everywhere), got {amplitude}")
     a = rng.dirichlet(np.ones(3)) * amplitude
     ph = rng.uniform(0, 2 * np.pi, 3)
     R = int(math.ceil(radius * (1 + amplitude))) + 1
@@ -114,10 +147,13 @@ def rotate_sprite(intensity, mask, heading):
     sub-pixel grid (a pixel is in if half its area is), which keeps the area;
     the intensity is bilinear; both are cropped to the mask."""
     intensity = as_array(intensity, "intensity", ndim=2)
-    mask = np.asarray(mask, bool)
+    mask = _as_mask(mask, "mask")
     if mask.shape != intensity.shape:
-        raise ValueError("mask must have the shape of intensity")
-    th = float(heading)
+        raise ValueError(f"mask must have the shape of intensity {intensity.shape}, "
+                         f"got {mask.shape}")
+    if not mask.any():
+        raise ValueError("mask must have at least one pixel set")
+    th = as_scalar(heading, "heading")
     if abs(th) < 1e-12:
         return intensity.copy(), mask.copy()
     h, w = mask.shape
@@ -165,7 +201,14 @@ def terrain(rng, shape=FRAME_SHAPE, mean=40.0, texture_sd=8.0, road_level=30.0,
     straight road through pixel (x0, y0) at ``angle`` radians (x right, y up).
     """
     rng = as_rng(rng)
-    H, W = shape
+    if len(shape) != 2:
+        raise ValueError(f"shape must be (rows, columns), got {shape!r}")
+    H, W = (as_int(n, "shape", minimum=1) for n in shape)
+    if max(H, W) > MAX_FRAME:
+        raise ValueError(f"shape must be at most {MAX_FRAME} px on a side, got {shape!r}")
+    mean = as_scalar(mean, "mean")
+    texture_sd = as_nonnegative(texture_sd, "texture_sd")
+    road_level = as_scalar(road_level, "road_level")
     bg = mean + ndimage.uniform_filter(rng.normal(0.0, texture_sd, (H, W)), size=5,
                                        mode="reflect")
     if horizontal_road is not None:
@@ -186,9 +229,12 @@ def render_frame(background, objects, rng, gain=1.0, noise_sd=3.0):
     """Render one uint8 frame.
 
     ``objects`` is a sequence of ``(intensity, mask, x, y)``: a sprite and the
-    image position (column x, row y) of its centre.  Objects are pasted in
-    order over ``background``, then i.i.d. noise N(0, noise_sd^2) is added,
-    the frame is multiplied by ``gain``, clipped to [0, 255] and rounded.
+    image position (column x, row y) of its centre; its top-left pixel is
+    ``floor(y - (h - 1) / 2 + 1/2)``, ``floor(x - (w - 1) / 2 + 1/2)`` (rounding half
+    up, so that shifting every position by whole pixels shifts the image).  Objects
+    are pasted in order over ``background``, then i.i.d. noise N(0, noise_sd^2) is
+    added, the frame is multiplied by ``gain``, rounded to whole grey levels and
+    clipped to [0, 255] (in single precision).
 
     Returns ``(frame, labels, boxes)``: ``labels`` (H, W) int array with
     object i's visible pixels set to i + 1 (0 = background), and ``boxes``
@@ -196,14 +242,27 @@ def render_frame(background, objects, rng, gain=1.0, noise_sd=3.0):
     """
     rng = as_rng(rng)
     bg = as_array(background, "background", ndim=2)
+    gain = as_positive(gain, "gain")
+    noise_sd = as_nonnegative(noise_sd, "noise_sd")
+    if gain > 1e3 or noise_sd > 1e3:
+        raise ValueError(f"gain and noise_sd must be at most 1000, got {gain} and {noise_sd}")
     H, W = bg.shape
     img = bg.copy()
     labels = np.zeros((H, W), np.int32)
     boxes = np.full((len(objects), 4), -1, np.int64)
-    for i, (inten, mask, x, y) in enumerate(objects):
+    for i, obj in enumerate(objects):
+        if len(obj) != 4:
+            raise ValueError(f"objects[{i}] must be (intensity, mask, x, y)")
+        inten, mask, x, y = obj
+        inten = as_array(inten, f"objects[{i}] intensity", ndim=2)
+        mask = _as_mask(mask, f"objects[{i}] mask")
+        if mask.shape != inten.shape:
+            raise ValueError(f"objects[{i}]: mask and intensity must have the same shape")
+        x = as_scalar(x, f"objects[{i}] x")
+        y = as_scalar(y, f"objects[{i}] y")
         h, w = mask.shape
-        r0 = int(round(y - (h - 1) / 2.0))
-        c0 = int(round(x - (w - 1) / 2.0))
+        r0 = math.floor(y - (h - 1) / 2.0 + 0.5)
+        c0 = math.floor(x - (w - 1) / 2.0 + 0.5)
         rr0, cc0 = max(r0, 0), max(c0, 0)
         rr1, cc1 = min(r0 + h, H), min(c0 + w, W)
         if rr1 <= rr0 or cc1 <= cc0:
@@ -214,10 +273,13 @@ def render_frame(background, objects, rng, gain=1.0, noise_sd=3.0):
         region[sub_m] = sub_i[sub_m]
         labels[rr0:rr1, cc0:cc1][sub_m] = i + 1
         boxes[i] = (rr0, cc0, rr1, cc1)
-    img += noise_sd * rng.standard_normal((H, W), dtype=np.float32)
-    img *= gain
-    frame = np.clip(np.rint(img), 0, 255).astype(np.uint8)
-    return frame, labels, boxes
+    out = rng.standard_normal((H, W), dtype=np.float32)
+    out *= noise_sd
+    out += img
+    out *= gain
+    np.rint(out, out=out)
+    np.clip(out, 0, 255, out=out)
+    return out.astype(np.uint8), labels, boxes
 
 
 # ---------------------------------------------------------------- background subtraction
@@ -276,12 +338,16 @@ class ViBe:
         self.rng = as_rng(rng)
         first = as_array(first_frame, "first_frame", ndim=2)
         self.n_samples = as_int(n_samples, "n_samples", minimum=1)
+        if self.n_samples > 1000:
+            raise ValueError(f"n_samples must be at most 1000, got {self.n_samples}")
         self.radius = as_positive(radius, "radius")
         self.min_matches = as_int(min_matches, "min_matches", minimum=1)
         if self.min_matches > self.n_samples:
             raise ValueError("min_matches must not exceed n_samples")
         self.subsample = as_int(subsample, "subsample", minimum=1)
-        self.samples = np.empty(first.shape + (self.n_samples,))
+        # float32 samples halve the memory traffic of the per-pixel loop; grey levels of
+        # 8-bit frames are stored exactly
+        self.samples = np.empty(first.shape + (self.n_samples,), np.float32)
         offsets = self.rng.integers(-1, 2, first.shape + (self.n_samples, 2), dtype=np.int8)
         _vibe_init_kernel(self.samples, first, offsets)
 
@@ -291,7 +357,7 @@ class ViBe:
         if frame.shape != self.samples.shape[:2]:
             raise ValueError(f"frame must have shape {self.samples.shape[:2]}, got {frame.shape}")
         out = np.empty(frame.shape, np.bool_)
-        u = self.rng.random(frame.shape + (2,))
+        u = self.rng.random(frame.shape + (2,), dtype=np.float32)
         _vibe_kernel(self.samples, frame, self.radius, self.min_matches, self.subsample, u,
                      self.rng, out)
         return out
@@ -345,10 +411,7 @@ def clean_mask(mask):
     """3x3 binary opening, then 3x3 closing (same result as
     ``ndimage.binary_closing(ndimage.binary_opening(mask, s), s)`` with a 3x3
     square ``s``; a numba kernel)."""
-    mask = np.asarray(mask, bool)
-    if mask.ndim != 2:
-        raise ValueError(f"mask must be 2-D, got shape {mask.shape}")
-    a = np.ascontiguousarray(mask)
+    a = _as_mask(mask, "mask")
     b = np.empty_like(a)
     _morph3_kernel(a, b, False)      # opening: erode ...
     c = np.empty_like(a)
@@ -372,7 +435,7 @@ class ImageDetections(NamedTuple):
 def detect_blobs(mask, frame, min_area=25, margin=4, clean=True):
     """Connected components (8-connected, area >= ``min_area``) of a
     foreground mask (cleaned by :func:`clean_mask` unless ``clean=False``)."""
-    mask = np.asarray(mask, bool)
+    mask = _as_mask(mask, "mask")
     frame = as_array(frame, "frame", ndim=2)
     if mask.shape != frame.shape:
         raise ValueError(f"mask must have the shape of frame {frame.shape}, got {mask.shape}")
@@ -406,8 +469,8 @@ def detect_blobs(mask, frame, min_area=25, margin=4, clean=True):
 
 def mask_iou(a, b):
     """Intersection over union of two boolean masks (1.0 if both empty)."""
-    a = np.asarray(a, bool)
-    b = np.asarray(b, bool)
+    a = _as_mask(a, "a")
+    b = _as_mask(b, "b")
     if a.shape != b.shape:
         raise ValueError(f"masks must have equal shapes, got {a.shape} and {b.shape}")
     u = np.logical_or(a, b).sum()
@@ -432,77 +495,123 @@ def _canvas(A, B, s, fa, fb):
 
 
 @nb.njit(cache=True)
+def _ncc_patches_kernel(A, B, fa, fb, s):
+    """:func:`ncc` of two float64 patches (fills ``fa``, ``fb``): builds the common
+    canvas of :func:`_canvas` and calls :func:`_ncc_kernel`."""
+    ha, wa = A.shape
+    hb, wb = B.shape
+    H = max(ha, hb) + 2 * s
+    W = max(wa, wb) + 2 * s
+    ca = np.full((H, W), fa)
+    ra, qa = (H - ha) // 2, (W - wa) // 2
+    for i in range(ha):
+        for j in range(wa):
+            ca[ra + i, qa + j] = A[i, j]
+    return _ncc_kernel(ca, B, fb, (H - hb) // 2, (W - wb) // 2, s)
+
+
+@nb.njit(cache=True)
 def _ncc_kernel(ca, B, fb, rb, qb, s):
+    """max over shifts |u|, |v| <= s of the zero-mean NCC of canvas ``ca`` and the
+    canvas holding ``B`` at (rb + u, qb + v) on fill ``fb``.  B's canvas has the
+    same mean and variance at every shift, and sum(ca * b) = sum over B's
+    footprint of ca * B + fb * (sum(ca) - sum of ca over the footprint), so each
+    shift costs one pass over B's footprint only."""
     H, W = ca.shape
     h, w = B.shape
     n = H * W
-    ma = 0.0
+    sa = 0.0
     for i in range(H):
         for j in range(W):
-            ma += ca[i, j]
-    ma /= n
+            sa += ca[i, j]
+    ma = sa / n
     saa = 0.0
     for i in range(H):
         for j in range(W):
             saa += (ca[i, j] - ma) ** 2
+    sb = 0.0
+    sb2 = 0.0
+    for i in range(h):
+        for j in range(w):
+            sb += B[i, j]
+            sb2 += B[i, j] * B[i, j]
+    rest = n - h * w
+    mb = (sb + fb * rest) / n
+    # sum of (b - mb)^2 over the canvas, shift-independent, without cancellation
+    sbb = 0.0
+    for i in range(h):
+        for j in range(w):
+            sbb += (B[i, j] - mb) ** 2
+    sbb += rest * (fb - mb) ** 2
+    den = math.sqrt(saa * sbb)
     best = -np.inf
     for u in range(-s, s + 1):
         for v in range(-s, s + 1):
             r0 = rb + u
             c0 = qb + v
-            # mean of the shifted canvas of B
-            sb = 0.0
+            # sum over the canvas of (a - ma)(b - mb) = sum over B's footprint of
+            # (a - ma)(B - fb) + (fb - mb) * sum(a - ma), and sum(a - ma) = 0
+            sab = 0.0
             for i in range(h):
                 for j in range(w):
-                    sb += B[i, j]
-            mb = (sb + fb * (n - h * w)) / n
-            sab = 0.0
-            sbb = 0.0
-            for i in range(H):
-                for j in range(W):
-                    ii = i - r0
-                    jj = j - c0
-                    if ii >= 0 and ii < h and jj >= 0 and jj < w:
-                        b = B[ii, jj] - mb
-                    else:
-                        b = fb - mb
-                    sab += (ca[i, j] - ma) * b
-                    sbb += b * b
-            den = math.sqrt(saa * sbb)
+                    sab += (ca[r0 + i, c0 + j] - ma) * (B[i, j] - fb)
             r = sab / den if den > 0 else 0.0
             if r > best:
                 best = r
     return best
 
 
-def _check_patch(P, name):
+def _check_patch(P, name, kind):
+    if kind == "mask":
+        P = _as_mask(P, name)
     P = as_array(P, name, ndim=2)
     if P.size == 0:
         raise ValueError(f"{name} must not be empty")
+    if np.abs(P).max() > 1e100:
+        raise ValueError(f"{name} must hold values of magnitude at most 1e100 "
+                         "(the correlation's sums would overflow)")
     return P
+
+
+def _ncc_inputs(A, B, s, kind):
+    """Validate the arguments shared by :func:`ncc` and :func:`ncc_reference`."""
+    if kind not in ("mask", "grey"):
+        raise ValueError(f"kind must be 'mask' or 'grey', got {kind!r}")
+    A = _check_patch(A, "A", kind)
+    B = _check_patch(B, "B", kind)
+    s = as_int(s, "s", minimum=0)
+    if s > 64:
+        raise ValueError(f"s (the search half-width) must be at most 64 px, got {s}")
+    for name, P in (("A", A), ("B", B)):
+        if max(P.shape) > MAX_FRAME:
+            raise ValueError(f"{name} must be at most {MAX_FRAME} px on a side, "
+                             f"got {P.shape}")
+    return A, B, s
 
 
 def ncc(A, B, s=4, kind="mask"):
     """Zero-mean normalised cross-correlation of two patches (Lewis), the
-    spec's symmetric definition: both placed centred on a common canvas of
+    symmetric definition used by the chapter: both placed centred on a common canvas of
     size (max h + 2s) x (max w + 2s), filled with 0 (``kind="mask"``) or with
     the median of each patch's border rows (``kind="grey"``); B shifted by
     every integer (u, v) with ``|u|, |v| <= s``; the maximum NCC over the canvas.
-    A constant canvas has NCC 0."""
-    A = _check_patch(A, "A")
-    B = _check_patch(B, "B")
-    s = as_int(s, "s", minimum=0)
-    if kind not in ("mask", "grey"):
-        raise ValueError(f"kind must be 'mask' or 'grey', got {kind!r}")
+    A constant canvas has NCC 0.  With ``kind="mask"`` the patches must be binary
+    (0/1 or booleans)."""
+    A, B, s = _ncc_inputs(A, B, s, kind)
     fa, fb = _fill_value(A, kind), _fill_value(B, kind)
-    ca, rb, qb = _canvas(A, B, s, fa, fb)
-    return float(_ncc_kernel(ca, B, fb, rb, qb, s))
+    return float(_ncc_patches_kernel(A, B, fa, fb, s))
+
+
+def _mask_ncc(A, B, s=4):
+    """:func:`ncc` of two boolean masks already checked by the caller (the tracker
+    checks every mask once per frame)."""
+    return float(_ncc_patches_kernel(A.astype(np.float64), B.astype(np.float64), 0.0, 0.0, s))
 
 
 def ncc_reference(A, B, s=4, kind="mask"):
-    """Direct numpy loop over shifts (the test reference for :func:`ncc`)."""
-    A = np.asarray(A, float)
-    B = np.asarray(B, float)
+    """Direct numpy loop over shifts (the test reference for :func:`ncc`); the same
+    arguments and checks."""
+    A, B, s = _ncc_inputs(A, B, s, kind)
     fa, fb = _fill_value(A, kind), _fill_value(B, kind)
     ca, rb, qb = _canvas(A, B, s, fa, fb)
     best = -np.inf
@@ -519,6 +628,10 @@ def ncc_reference(A, B, s=4, kind="mask"):
 
 def ncc_matrix(templates, patches, s=4, kind="mask"):
     """rho[i, j] = ncc(templates[i], patches[j])."""
+    if isinstance(templates, np.ndarray) and templates.ndim == 2:
+        raise ValueError("templates must be a sequence of 2-D patches, got one 2-D array")
+    if isinstance(patches, np.ndarray) and patches.ndim == 2:
+        raise ValueError("patches must be a sequence of 2-D patches, got one 2-D array")
     out = np.empty((len(templates), len(patches)))
     for i, A in enumerate(templates):
         for j, B in enumerate(patches):

@@ -1,4 +1,4 @@
-"""Track-quality measures for the feature-JPDA scenes (chapter spec section 7).
+"""Track-quality measures for the feature-JPDA scenes.
 
 Truth-to-track matching per frame: Hungarian assignment on centroid distance
 between the *vehicles* present in the frame and the confirmed and memory
@@ -15,9 +15,17 @@ tracks, gated at ``match_gate`` (10 px).  From the matches:
   ``match_gate``, in most of those frames, else to ``"other"`` (speckle,
   fragments);
 * CLEAR-MOT ID switches, fragmentations, MOTA and MOTP;
-* crossing outcome (kept / swap / break) 10 frames either side of a conflict;
+* crossing outcome (kept / swap / break): the pair's track IDs at the two ends of
+  the scene's score window (10 frames either side of a crossing);
 * follower: frames from the follower's full entry until it has its own
-  confirmed track (one never matched to the leader before).
+  confirmed track (one never matched to the leader before);
+* complexity: feasible joint events per frame, and the share of kinematically
+  validated pairs that the feature gate removed.
+
+:func:`scene_trial` renders a scene once, segments it once and runs several tracker
+configurations on the same detections; :func:`paired_comparison` decides one variant
+against another on paired runs (an interval of the mean paired difference and an
+exact sign test).
 """
 from __future__ import annotations
 
@@ -26,10 +34,13 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from ..stats import wilson_interval  # noqa: F401  (re-exported for the chapter's notebooks)
+from ..core.validation import as_array, as_int, as_positive
+
+from ..stats import Estimate, mcnemar_exact, paired_diff_ci
 
 __all__ = ["SceneMetrics", "match_tracks", "scene_metrics", "vehicle_mask_iou",
-           "SceneTrial", "scene_trial", "scene_trials"]
+           "SceneTrial", "scene_trial", "scene_trials", "scene_run",
+           "PairedComparison", "paired_comparison", "crossing_trial"]
 
 _REPORTED = ("confirmed", "memory")
 
@@ -51,16 +62,45 @@ class SceneMetrics(NamedTuple):
     valid_removed: float     # share of kinematic validation entries removed by the feature gate
     assoc_ms: float          # mean association time per frame
     false_sources: tuple = ()  # ((source name, false tracks), ...) sorted by name
+    mean_events_kin: float = float("nan")  # events per frame of the same tracks without the
+                                           # feature gate (kinematic validation only)
 
     @property
     def tmr(self):
+        """Track maintenance rate of this sequence (NaN if no eligible frame)."""
         return self.tmr_num / self.tmr_den if self.tmr_den else float("nan")
+
+    @property
+    def events_per_frame(self):
+        """Mean feasible joint events per frame, summed over clusters."""
+        return self.mean_events
+
+    @property
+    def swapped(self):
+        """Whether the pair's track IDs were exchanged across the score window."""
+        return self.crossing == "swap"
+
+    @property
+    def kept(self):
+        """Whether the pair kept their track IDs across the score window."""
+        return self.crossing == "kept"
 
 
 def match_tracks(truth_xy, truth_present, reports, match_gate=10.0):
     """Per frame, the matched track ID of every truth object (-1 = none) and
-    the distances: returns ``(ids (K, n) int, dist (K, n))``."""
+    the distances: returns ``(ids (K, n) int, dist (K, n))``.  ``truth_xy`` is
+    (K, n, 2), ``truth_present`` (K, n) and ``reports`` holds at least K frames."""
+    truth_present = np.asarray(truth_present)
+    if truth_present.ndim != 2 or truth_present.dtype != np.bool_:
+        raise ValueError("truth_present must be a 2-D boolean array (K, n), got "
+                         f"shape {truth_present.shape} and dtype {truth_present.dtype}")
     K, n = truth_present.shape
+    truth_xy = as_array(truth_xy, "truth_xy", shape=(K, n, 2), finite=False)
+    if np.any(~np.isfinite(truth_xy[truth_present])):
+        raise ValueError("truth_xy must be finite wherever truth_present is True")
+    if len(reports) < K:
+        raise ValueError(f"reports must hold at least K = {K} frames, got {len(reports)}")
+    match_gate = as_positive(match_gate, "match_gate")
     ids = np.full((K, n), -1, np.int64)
     dist = np.full((K, n), np.nan)
     for k in range(K):
@@ -139,9 +179,12 @@ def scene_metrics(scene, reports, match_gate=10.0):
     motp = float(np.nanmean(dist)) if np.any(ids >= 0) else float("nan")
     # crossing
     crossing = ""
-    if scene.conflict_frame >= 0 and len(scene.pair) == 2:
+    window = tuple(getattr(scene, "score_window", (-1, -1)) or (-1, -1))
+    if window[0] < 0 and scene.conflict_frame >= 0:
+        window = (scene.conflict_frame - 10, scene.conflict_frame + 10)
+    if window[0] >= 0 and len(scene.pair) == 2:
         a, b = (int(np.nonzero(veh == p)[0][0]) for p in scene.pair)
-        k0, k1 = scene.conflict_frame - 10, scene.conflict_frame + 10
+        k0, k1 = window
         before, after = (ids[k0, a], ids[k0, b]), (ids[k1, a], ids[k1, b])
         if min(before) < 0 or min(after) < 0 or before[0] == before[1]:
             crossing = "break"
@@ -176,7 +219,8 @@ def scene_metrics(scene, reports, match_gate=10.0):
     return SceneMetrics(tmr_num, tmr_den, cov, len(false_ids), false_frames, idsw, frag,
                         float(mota), motp, crossing, follower_delay, float(ev.mean()),
                         int(ev.max()), (vk - vv) / vk if vk else 0.0,
-                        float(np.mean([r.assoc_ms for r in reports])), false_sources)
+                        float(np.mean([r.assoc_ms for r in reports])), false_sources,
+                        float(np.mean([r.n_events_kin for r in reports])))
 
 
 def _false_track_sources(scene, reports, false_ids, match_gate):
@@ -208,10 +252,18 @@ def _false_track_sources(scene, reports, false_ids, match_gate):
 def vehicle_mask_iou(scene, masks, margin=3):
     """IoU of the segmented foreground against every fully visible vehicle's
     rendered mask, frame by frame, inside the vehicle's box grown by
-    ``margin`` px (so other objects do not count).  Returns an array of IoUs."""
+    ``margin`` px (so other objects do not count).  ``masks`` is (K, H, W), one
+    foreground mask per scene frame.  Returns an array of IoUs."""
     from ..detection.image import mask_iou
     K = scene.xy.shape[0]
     n0 = scene.frames.shape[0] - K
+    masks = np.asarray(masks)
+    if masks.shape != (K,) + scene.labels.shape[1:]:
+        raise ValueError(f"masks must have shape {(K,) + scene.labels.shape[1:]} (one mask "
+                         f"per scene frame), got {masks.shape}")
+    if masks.dtype != np.bool_:
+        raise ValueError(f"masks must be boolean, got dtype {masks.dtype}")
+    margin = as_int(margin, "margin", minimum=0)
     out = []
     for k in range(K):
         lab = scene.labels[n0 + k]
@@ -235,14 +287,48 @@ class SceneTrial(NamedTuple):
     positions: dict               # variant label -> list of (n_k, 2) arrays
 
 
-def scene_trial(rng, scene_name, variants, method="vibe"):
-    """Render ``scene_name`` with ``rng``, segment it once, and run every
-    tracker configuration of ``variants`` (label -> JPDATrackerConfig) on the
-    same detections."""
-    return scene_trials(rng, scene_name, {method: variants})[method]
+def _check_variants(variants, name="variants"):
+    from ..trackers.jpda_tracker import JPDATrackerConfig
+    if not isinstance(variants, dict) or not variants:
+        raise ValueError(f"{name} must be a non-empty dict label -> JPDATrackerConfig")
+    for label, cfg in variants.items():
+        if not isinstance(cfg, JPDATrackerConfig):
+            raise TypeError(f"{name}[{label!r}] must be a JPDATrackerConfig, "
+                            f"got {type(cfg).__name__}")
 
 
-def scene_trials(rng, scene_name, variants_by_method):
+def scene_run(rng, scene_name, variants, method="vibe", jitter=None):
+    """Render ``scene_name`` with ``rng`` (camera ``jitter`` in px, default the
+    scene's), segment it once by ``method`` and run every tracker configuration
+    of ``variants`` (label -> JPDATrackerConfig) on the same detections.
+    Returns ``(scene, detections, reports)`` with ``reports`` label -> list of
+    :class:`trackcore.trackers.jpda_tracker.FrameReport`."""
+    from ..trackers.jpda_tracker import run_jpda_tracker
+    from .feature_scenes import render_scene, segment_scene
+    _check_variants(variants)
+    scene = render_scene(scene_name, rng, jitter=jitter)
+    dets, _ = segment_scene(scene, method, rng)
+    return scene, dets, {label: run_jpda_tracker(dets, cfg) for label, cfg in variants.items()}
+
+
+def _trial(scene, reports):
+    veh = np.nonzero(scene.is_vehicle)[0]
+    metrics, positions = {}, {}
+    for label, reps in reports.items():
+        metrics[label] = scene_metrics(scene, reps)
+        positions[label] = [np.array([[s.x, s.y] for s in r.tracks if s.status in _REPORTED])
+                            .reshape(-1, 2) for r in reps]
+    return SceneTrial(scene.xy[:, veh], scene.present[:, veh], metrics, positions)
+
+
+def scene_trial(rng, scene_name, variants, method="vibe", jitter=None):
+    """:func:`scene_run`, reduced to a :class:`SceneTrial` (metrics and positions):
+    one Monte Carlo run for :func:`trackcore.montecarlo.run`."""
+    scene, _, reports = scene_run(rng, scene_name, variants, method, jitter)
+    return _trial(scene, reports)
+
+
+def scene_trials(rng, scene_name, variants_by_method, jitter=None):
     """Render ``scene_name`` once with ``rng`` and, for every segmentation
     method of ``variants_by_method`` (method -> {label -> JPDATrackerConfig}),
     segment the same frames and run that method's tracker configurations.
@@ -254,16 +340,68 @@ def scene_trials(rng, scene_name, variants_by_method):
     from .feature_scenes import render_scene, segment_scene
     if not isinstance(variants_by_method, dict) or not variants_by_method:
         raise ValueError("variants_by_method must be a non-empty dict method -> variants")
-    scene = render_scene(scene_name, rng)
-    veh = np.nonzero(scene.is_vehicle)[0]
+    for method, variants in variants_by_method.items():
+        _check_variants(variants, f"variants_by_method[{method!r}]")
+    scene = render_scene(scene_name, rng, jitter=jitter)
     out = {}
     for method, variants in variants_by_method.items():
         dets, _ = segment_scene(scene, method, rng)
-        metrics, positions = {}, {}
-        for label, cfg in variants.items():
-            reps = run_jpda_tracker(dets, cfg)
-            metrics[label] = scene_metrics(scene, reps)
-            positions[label] = [np.array([[s.x, s.y] for s in r.tracks if s.status in _REPORTED])
-                                .reshape(-1, 2) for r in reps]
-        out[method] = SceneTrial(scene.xy[:, veh], scene.present[:, veh], metrics, positions)
+        out[method] = _trial(scene, {label: run_jpda_tracker(dets, cfg)
+                                     for label, cfg in variants.items()})
     return out
+
+
+def crossing_trial(rng, variants, **crossing_kwargs):
+    """One run of the measurement-level crossing: draw the detections of
+    :func:`trackcore.scenarios.feature_scenes.crossing_detections` (keyword
+    arguments passed on) and run every tracker configuration of ``variants`` on
+    them.  Returns ``{label: SceneMetrics}``."""
+    from ..trackers.jpda_tracker import run_jpda_tracker
+    from .feature_scenes import crossing_detections
+    _check_variants(variants)
+    dets, scene = crossing_detections(rng, **crossing_kwargs)
+    return {label: scene_metrics(scene, run_jpda_tracker(dets, cfg))
+            for label, cfg in variants.items()}
+
+
+class PairedComparison(NamedTuple):
+    """Variant A against variant B on the same runs (seeds).
+
+    ``mean_a``, ``mean_b``: the means over runs; ``diff``: the paired BCa interval
+    of mean(A) - mean(B); ``a_better`` / ``b_better``: runs where A (B) did
+    strictly better; ``p_sign``: exact two-sided sign test (McNemar on the runs
+    that differ); ``verdict``: ``"A better"``, ``"B better"`` (with the names
+    given) or ``"tie"``, decided by the interval of the difference."""
+    a: str
+    b: str
+    mean_a: float
+    mean_b: float
+    diff: Estimate
+    a_better: int
+    b_better: int
+    p_sign: float
+    verdict: str
+
+
+def paired_comparison(x, y, names=("A", "B"), lower_is_better=True):
+    """Decide A (per-run values ``x``) against B (``y``, same runs): the paired
+    interval of the mean difference decides (a tie unless it excludes 0); the
+    exact sign test on the runs that differ is reported beside it."""
+    x = as_array(x, "x", ndim=1)
+    y = as_array(y, "y", ndim=1)
+    if x.size != y.size or x.size < 2:
+        raise ValueError(f"x and y must be paired runs of equal length >= 2, "
+                         f"got {x.size} and {y.size}")
+    if len(names) != 2 or not all(isinstance(v, str) for v in names):
+        raise TypeError("names must be two strings")
+    d = paired_diff_ci(x, y)
+    sign = 1.0 if lower_is_better else -1.0
+    a_better = int(np.sum(sign * (x - y) < 0))
+    b_better = int(np.sum(sign * (x - y) > 0))
+    if d.hi < 0 or d.lo > 0:
+        a_wins = (d.hi < 0) == lower_is_better
+        verdict = f"{names[0]} better" if a_wins else f"{names[1]} better"
+    else:
+        verdict = "tie"
+    return PairedComparison(names[0], names[1], float(x.mean()), float(y.mean()), d,
+                            a_better, b_better, mcnemar_exact(a_better, b_better), verdict)

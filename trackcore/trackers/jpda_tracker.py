@@ -17,16 +17,19 @@ PDA update with the covariance-spread term
 
     tentative --hit--> reserved --2 consecutive hits--> confirmed <--> memory
 
-with deletion on misses (tentative: 1st; reserved and memory: 2nd
-consecutive), on an oversized gate (semi-major axis sqrt(gamma lambda_max(S))
-> G_th) and on a duplicate counter reaching 3 (close positions and equal,
-non-empty validated measurement sets on 3 consecutive frames; the track with
-the shorter history goes, on a tie the larger ID).  Unused measurements seed
-new tentative tracks by two-step initialisation (TSI).
+with deletion on misses (tentative: the 1st; reserved: the 2nd consecutive;
+memory: once the consecutive misses exceed ``memory_frames``), on an oversized
+gate (semi-major axis sqrt(gamma lambda_max(S)) > G_th) and on a duplicate
+counter reaching 3 (close positions and equal, non-empty validated measurement
+sets on 3 consecutive frames; the track with the shorter history goes, on a tie
+the larger ID).  Measurements outside every track's kinematic gate seed new
+tentative tracks by two-step initialisation (TSI).  The readings of the paper
+that these rules fix are listed in :class:`JPDATrackerConfig`.
 """
 from __future__ import annotations
 
 import math
+import numbers
 import time
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -36,10 +39,11 @@ from scipy.optimize import linear_sum_assignment
 from scipy.stats import beta as beta_dist
 
 from ..association.gating import mahalanobis_gate_kernel
-from ..association.jpda import jpda_clusters, jpda_marginals
+from ..core.validation import as_array, as_bool_matrix
+from ..association.jpda import feasible_event_count, jpda_clusters, jpda_marginals
 from ..association.pda import pda_update_kernel
 from ..filters.kalman import cholesky_lower_kernel, kf_predict_kernel
-from ..detection.image import ncc
+from ..detection.image import _mask_ncc as ncc
 from ..models.measurement import position_matrix
 from ..models.motion import cv_process_noise, cv_transition
 
@@ -50,9 +54,14 @@ __all__ = [
     "FrameReport",
     "JPDATracker",
     "run_jpda_tracker",
+    "matched_config",
+    "steady_state_gate",
+    "VARIANTS",
 ]
 
 VARIANTS = ("GNN", "JPDA", "FJPDA-gate", "FJPDA")
+TSI_SOURCES = ("outside_gates", "unvalidated")
+RHO_WEIGHTS = ("raw", "normalised")
 
 
 class TrackStatus:
@@ -62,9 +71,51 @@ class TrackStatus:
     MEMORY = "memory"
 
 
+def _check_real(obj, name, *, positive=False, nonnegative=False, lo=None, hi=None):
+    v = getattr(obj, name)
+    if isinstance(v, bool) or not isinstance(v, numbers.Real):
+        raise TypeError(f"{name} must be a real number, got {type(v).__name__}")
+    v = float(v)
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {v}")
+    if positive and not v > 0:
+        raise ValueError(f"{name} must be > 0, got {v}")
+    if nonnegative and not v >= 0:
+        raise ValueError(f"{name} must be >= 0, got {v}")
+    if (lo is not None and v < lo) or (hi is not None and v > hi):
+        raise ValueError(f"{name} must lie in [{lo}, {hi}], got {v}")
+
+
+def _check_count(obj, name, minimum=1):
+    v = getattr(obj, name)
+    if isinstance(v, bool) or not isinstance(v, numbers.Real):
+        raise TypeError(f"{name} must be an integer, got {type(v).__name__}")
+    if not math.isfinite(float(v)) or float(v) != int(v) or int(v) < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {v}")
+
+
 @dataclass(frozen=True)
 class JPDATrackerConfig:
-    """Tracker parameters (pixels, frames); defaults are the spec's section 7."""
+    """Tracker parameters (pixels, frames).  The paper gives none of the numbers; the
+    defaults are the chapter's choices (its index page, *Choices we made*).
+
+    Readings the paper leaves open, with the default first:
+
+    * ``memory_frames`` (2): a confirmed track that misses enters memory and is
+      deleted when its consecutive misses exceed ``memory_frames`` (1 = deleted on
+      the second consecutive miss, counting the one that sent it to memory);
+    * ``tsi_from`` (``"outside_gates"``): two-step initialisation uses the
+      measurements outside every track's kinematic gate; ``"unvalidated"`` uses
+      those validated by no track under the variant's own validation (feature
+      gated for the F variants), so that a measurement the feature gate rejected
+      can start a track;
+    * ``rho_weight`` (``"raw"``): eq (6) multiplies an assignment by the NCC
+      rho; ``"normalised"`` by rho divided by the sum of rho over the
+      measurements validated by the same track;
+    * ``template_guard`` (True): a template update must also correlate at
+      least c_I with the track's first template (a drift guard);
+      ``template_update=False`` keeps the first template.
+    """
     variant: str = "FJPDA"
     sigma_a: float = 0.3            # DWNA acceleration std, px/frame^2
     r_std: float = 1.0              # measurement noise std per axis, px
@@ -81,32 +132,81 @@ class JPDATrackerConfig:
     model: str = "cv"               # "cv" or "rw" (position-only random walk, ablation)
     q_rw: float = 4.0               # random-walk position variance per frame, px^2
     template_update: bool = True
+    template_guard: bool = True
     tsi_feature: bool = False       # ablation: TSI pairs need rho(z_p, z_c) >= c_I
+    tsi_from: str = "outside_gates"
+    memory_frames: int = 2
+    rho_weight: str = "raw"
     feature_lr: tuple | None = None  # (a1, b1, a0, b0): FJPDA weights by the Beta likelihood
                                      # ratio g1(rho)/g0(rho) instead of rho (extension)
 
     def __post_init__(self):
-        if self.variant not in VARIANTS:
-            raise ValueError(f"variant must be one of {VARIANTS}, got {self.variant!r}")
-        if self.model not in ("cv", "rw"):
-            raise ValueError(f"model must be 'cv' or 'rw', got {self.model!r}")
-        for name in ("sigma_a", "r_std", "gamma", "lam", "v_max", "gate_max", "d_dup"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a positive number, got {v!r}")
-        if not 0.0 <= self.pd <= 1.0:
-            raise ValueError(f"pd must be a probability in [0, 1], got {self.pd}")
-        if not -1.0 <= self.c_I <= 1.0:
-            raise ValueError(f"c_I must lie in [-1, 1], got {self.c_I}")
-        if self.feature_lr is not None and (len(self.feature_lr) != 4
-                                            or min(self.feature_lr) <= 0):
-            raise ValueError("feature_lr must be four positive Beta parameters (a1, b1, a0, b0)")
-        if int(self.dup_frames) != self.dup_frames or self.dup_frames < 1:
-            raise ValueError(f"dup_frames must be a positive integer, got {self.dup_frames}")
+        for name, allowed in (("variant", VARIANTS), ("model", ("cv", "rw")),
+                              ("tsi_from", TSI_SOURCES), ("rho_weight", RHO_WEIGHTS)):
+            if getattr(self, name) not in allowed:
+                raise ValueError(f"{name} must be one of {allowed}, "
+                                 f"got {getattr(self, name)!r}")
+        for name in ("sigma_a", "r_std", "gamma", "lam", "v_max", "gate_max", "d_dup",
+                     "q_rw"):
+            _check_real(self, name, positive=True)
+        _check_real(self, "pair_margin", nonnegative=True)
+        _check_real(self, "pd", lo=0.0, hi=1.0)
+        _check_real(self, "c_I", lo=-1.0, hi=1.0)
+        _check_count(self, "dup_frames")
+        _check_count(self, "memory_frames")
+        for name in ("duplicate_deletion", "template_update", "template_guard",
+                     "tsi_feature"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise TypeError(f"{name} must be True or False, "
+                                f"got {getattr(self, name)!r}")
+        if self.feature_lr is not None:
+            lr = self.feature_lr
+            ok = (isinstance(lr, (tuple, list)) and len(lr) == 4
+                  and all(isinstance(v, numbers.Real) and not isinstance(v, bool)
+                          and math.isfinite(v) and v > 0 for v in lr))
+            if not ok:
+                raise ValueError("feature_lr must be four positive Beta parameters "
+                                 f"(a1, b1, a0, b0), got {lr!r}")
 
     @property
     def uses_features(self):
         return self.variant in ("FJPDA-gate", "FJPDA")
+
+
+def matched_config(variant="FJPDA", jitter=0.0, **overrides):
+    """The tracker matched to a camera jitter of ``jitter`` px (per axis): every
+    length tied to the measurement noise scales with s = sqrt(1 + jitter^2), the
+    measurement standard deviation in px: R = s^2 I, the TSI pairing margin 3 s and
+    the gate-size threshold G_th = 20 s (at ``jitter=0`` the defaults).  Other
+    fields are the defaults unless given in ``overrides``."""
+    if isinstance(jitter, bool) or not isinstance(jitter, numbers.Real) \
+            or not math.isfinite(jitter) or not 0 <= jitter <= 1e3:
+        raise ValueError(f"jitter must be a number in [0, 1000] px, got {jitter!r}")
+    s = math.sqrt(1.0 + float(jitter) ** 2)
+    kw = dict(variant=variant, r_std=s, pair_margin=3.0 * s, gate_max=20.0 * s)
+    kw.update(overrides)
+    return JPDATrackerConfig(**kw)
+
+
+def steady_state_gate(config):
+    """Semi-major axis (px) of the steady-state gate sqrt(gamma lambda_max(S)) of a
+    track updated by one measurement per frame (the Kalman filter's Riccati
+    recursion iterated to convergence)."""
+    if not isinstance(config, JPDATrackerConfig):
+        raise TypeError("config must be a JPDATrackerConfig")
+    trk = JPDATracker(config)
+    F, Q, H, R = trk.F, trk.Q, trk.H, trk.R
+    P = np.eye(F.shape[0]) * 100.0
+    for _ in range(2000):
+        Pp = F @ P @ F.T + Q
+        S = H @ Pp @ H.T + R
+        W = Pp @ H.T @ np.linalg.inv(S)
+        P_new = Pp - W @ S @ W.T
+        if np.max(np.abs(P_new - P)) < 1e-12:
+            break
+        P = P_new
+    S = H @ (F @ P @ F.T + Q) @ H.T + R
+    return float(math.sqrt(config.gamma * np.linalg.eigvalsh(S)[-1]))
 
 
 class TrackSnapshot(NamedTuple):
@@ -130,6 +230,8 @@ class FrameReport(NamedTuple):
     n_valid: int             # pairs validated by the variant (feature-gated for F*)
     deleted: tuple           # (tid, reason) deleted at this frame
     assoc_ms: float          # wall time of gating + association + update (ms)
+    n_events_kin: int = 0    # feasible events of the kinematic validation of the same
+                             # tracks (= n_events for GNN and JPDA)
 
 
 @dataclass
@@ -139,6 +241,7 @@ class _Track:
     P: np.ndarray
     template: np.ndarray
     born: int
+    template0: np.ndarray | None = None
     status: str = TrackStatus.TENTATIVE
     hits: int = 0                 # consecutive hits in the current state
     misses: int = 0               # consecutive misses
@@ -179,17 +282,15 @@ class JPDATracker:
         else:
             x = np.array(zc, float)
             P = R.copy()
-        t = _Track(self.next_id, x, P, mask, self.k)
+        t = _Track(self.next_id, x, P, mask, self.k, template0=mask)
         self.next_id += 1
         return t
 
     # ------------------------------------------------------------ one frame
-    def step(self, detections):
+    def step(self, detections, name="detections"):
+        """Process one frame; ``name`` is used in error messages."""
         c = self.cfg
-        z = np.asarray(detections.z, float).reshape(-1, 2)
-        masks = list(detections.masks)
-        if len(masks) != z.shape[0]:
-            raise ValueError("detections.masks must hold one patch per measurement")
+        z, masks = _check_detections(detections, name)
         m = z.shape[0]
         t0 = time.perf_counter()
         T = len(self.tracks)
@@ -255,6 +356,11 @@ class JPDATracker:
                     a1, b1, a0, b0 = c.feature_lr
                     lr = np.exp(beta_dist.logpdf(r, a1, b1) - beta_dist.logpdf(r, a0, b0))
                     b, n = jpda_marginals(sub_lik * lr, sub_valid, c.pd, c.lam)
+                elif c.variant == "FJPDA" and c.rho_weight == "normalised":
+                    w = np.where(sub_valid, rho[ix], 0.0)
+                    tot = w.sum(axis=0)
+                    w = np.divide(w, tot, out=np.zeros_like(w), where=tot > 0)
+                    b, n = jpda_marginals(sub_lik * w, sub_valid, c.pd, c.lam)
                 elif c.variant == "FJPDA":
                     b, n = jpda_marginals(sub_lik, valid_kin[ix], c.pd, c.lam,
                                           rho=rho[ix], c_I=c.c_I)
@@ -263,6 +369,12 @@ class JPDATracker:
                 n_events += n
                 beta[0, trk] = b[0]
                 beta[np.ix_(mea + 1, trk)] = b[1:]
+        n_events_kin = n_events
+        if c.uses_features and not np.array_equal(valid, valid_kin):
+            n_events_kin = 0
+            for trk, mea in jpda_clusters(valid_kin):
+                n_events_kin += (feasible_event_count(valid_kin[np.ix_(mea, trk)])
+                                 if len(mea) else 1)
         # state update
         hit = valid.any(axis=0) if m else np.zeros(T, bool)
         for i, tr in enumerate(self.tracks):
@@ -281,7 +393,9 @@ class JPDATracker:
             tr.gate = (gx, gy)
             if c.uses_features and c.template_update and len(sel) and not was_memory:
                 jb = sel[np.argmax(beta[sel + 1, i])]
-                if beta[jb + 1, i] >= 0.5 and rho[jb, i] >= c.c_I:
+                if beta[jb + 1, i] >= 0.5 and rho[jb, i] >= c.c_I and (
+                        not c.template_guard or masks[jb] is tr.template0
+                        or ncc(tr.template0, masks[jb]) >= c.c_I):
                     tr.template = masks[jb]
         assoc_ms = 1e3 * (time.perf_counter() - t0)
         # track management
@@ -322,7 +436,7 @@ class JPDATracker:
                     tr.status, tr.misses = TrackStatus.CONFIRMED, 0
                 else:
                     tr.misses += 1
-                    if tr.misses >= 2:
+                    if tr.misses > c.memory_frames:
                         reason = "miss"
             if reason is None:
                 keep.append(tr)
@@ -331,8 +445,14 @@ class JPDATracker:
         self.tracks = keep
         if c.duplicate_deletion:
             deleted += self._duplicates()
-        # two-step initialisation from measurements outside every gate
-        used = valid.any(axis=1) if T else np.zeros(m, bool)
+        # two-step initialisation from measurements outside every kinematic gate (or, for
+        # tsi_from="unvalidated", validated by no track under the variant's validation)
+        if not T:
+            used = np.zeros(m, bool)
+        elif c.tsi_from == "outside_gates":
+            used = valid_kin.any(axis=1)
+        else:
+            used = valid.any(axis=1)
         cand = np.nonzero(~used)[0]
         new_prev = []
         if len(cand):
@@ -361,7 +481,7 @@ class JPDATracker:
                                     tr.gate[0], tr.gate[1], self.k - tr.born)
                       for tr in self.tracks)
         rep = FrameReport(self.k, snaps, int(n_events), int(valid_kin.sum()),
-                          int(valid.sum()), tuple(deleted), assoc_ms)
+                          int(valid.sum()), tuple(deleted), assoc_ms, int(n_events_kin))
         self.k += 1
         return rep
 
@@ -393,10 +513,39 @@ class JPDATracker:
         return [(tid, why) for tid, why in doomed.items()]
 
 
+def _check_detections(detections, name):
+    """``(z, masks)`` of one frame's detections after checking them: ``z`` finite
+    (m, 2) and one 2-D binary mask per measurement."""
+    try:
+        z_raw, masks = detections.z, detections.masks
+    except AttributeError:
+        raise TypeError(f"{name} must have attributes z (m, 2) and masks "
+                        f"(e.g. an ImageDetections), got {type(detections).__name__}") from None
+    z = as_array(z_raw, f"{name}.z")
+    if z.size == 0:
+        z = z.reshape(0, 2)
+    if z.ndim != 2 or z.shape[1] != 2:
+        raise ValueError(f"{name}.z must have shape (m, 2), got {z.shape}")
+    masks = list(masks)
+    if len(masks) != z.shape[0]:
+        raise ValueError(f"{name}.masks must hold one patch per measurement "
+                         f"({z.shape[0]}), got {len(masks)}")
+    for j, M in enumerate(masks):
+        if not (isinstance(M, np.ndarray) and M.dtype == np.bool_ and M.ndim == 2):
+            M = as_bool_matrix(M, f"{name}.masks[{j}]")
+            masks[j] = M
+        if M.size == 0:
+            raise ValueError(f"{name}.masks[{j}] must not be empty")
+    return z, masks
+
+
 def run_jpda_tracker(detections, config=None):
     """Run a tracker over a list of per-frame detections; returns the list of
-    :class:`FrameReport`."""
+    :class:`FrameReport`.  A detection with a NaN or infinite position is an error
+    (``ValueError`` naming the frame), never silently dropped."""
+    if config is not None and not isinstance(config, JPDATrackerConfig):
+        raise TypeError(f"config must be a JPDATrackerConfig, got {type(config).__name__}")
     trk = JPDATracker(config)
-    return [trk.step(d) for d in detections]
+    return [trk.step(d, f"detections[{k}]") for k, d in enumerate(detections)]
 
 
