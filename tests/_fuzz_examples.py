@@ -1279,7 +1279,7 @@ def IntensityMaps():
     import copy
     p, m = _maps()
     m = copy.deepcopy(m)
-    return call(m.power, m.origin, m.grid)
+    return call(m.footprint_centre, m.footprint_power, m.noise_key, m.grid)
 
 
 @example()
