@@ -62,7 +62,7 @@ DATA_RECORDS = {
     "OSPAResult", "PDAUpdate", "RandomManoeuvre", "SceneMetrics", "SceneTrial",
     "SmcPhdFilterRun", "SmcPhdStep", "SmcPhdUpdate", "SprtAcmDiscrimination", "SprtResult",
     "SprtSummary", "TbdErrorSummary", "TbdTrackResult", "TbdTrialResult", "TrackSnapshot",
-    "TrackerRun",
+    "TrackerRun", "FailureComparison", "MapTrackResult", "TbdRunOutcomes",
     # simulated data passed on to trackers and metrics
     "FeatureScene", "HoulesScans", "HpdaScans", "HpdaTruth", "ImageDetections",
     "SprtAcmMeasurements", "SprtAcmTruth", "TbdRadarScans", "TbdRadarTruth",
@@ -164,6 +164,20 @@ def _mu_nan_for_cv_acm(res, args, kwargs) -> bool:
 #: Non-finite results that are the mathematically right answer:
 #: ``{function: [(result path prefix, kinds, check or None, reason)]}``.
 ALLOWED_NONFINITE = {
+    "run_tbd_tracker": [
+        ("out.nis", {"nan"}, None,
+         "NIS of method A's pseudo-measurement only: NaN for a scan without one, or not A")],
+    "hpda_run_metrics": [
+        ("out['coverage_turn']", {"nan"}, None,
+         "a truth without a turn has no turn coverage: NaN")],
+    "intensity_tracker_config": [
+        ("out.sigma_v", {"inf"}, None, "an intensity map carries no Doppler: infinite noise"),
+        ("out.sigma_range_rate", {"inf"}, None,
+         "an intensity map carries no Doppler: infinite noise")],
+    "tbd_nees": [
+        ("out", {"nan"}, None, "no NEES where the covariance is not positive definite: NaN")],
+    "pseudo_measurement_errors": [
+        ("out", {"nan"}, None, "no pseudo-measurement for a window without a detection: NaN")],
     "normalize_log_weights": [
         ("out[0]", {"-inf"}, None, "a zero weight (log-weight -inf) stays zero")],
     "logsumexp": [

@@ -496,6 +496,10 @@ def _simulate_ranks_kernel(rng, n_draws, snr, tau, pg, clutter_mean, counts):
             counts[m, rank] += 1
 
 
+#: the largest clutter mean per gate the simulators accept
+_MAX_SIM_CLUTTER = 1e6
+
+
 def simulate_hpda_ranks(rng, n_draws, snr, tau, pg, clutter_mean, m_max):
     """Monte Carlo of the amplitude ranks from first principles.
 
@@ -514,6 +518,10 @@ def simulate_hpda_ranks(rng, n_draws, snr, tau, pg, clutter_mean, m_max):
     tau = as_nonnegative(tau, "tau")
     pg = as_probability(pg, "pg")
     lam = as_nonnegative(clutter_mean, "clutter_mean")
+    if lam > _MAX_SIM_CLUTTER:
+        # every draw loops over its clutter returns (and a Poisson draw of a huge mean
+        # overflows the integer count)
+        raise ValueError(f"clutter_mean must be <= {_MAX_SIM_CLUTTER:g}, got {lam}")
     m_max = as_count(m_max, "m_max")
     counts = np.zeros((m_max + 1, m_max + 1), dtype=np.int64)
     _simulate_ranks_kernel(rng, n, snr, tau, pg, lam, counts)

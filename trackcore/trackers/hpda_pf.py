@@ -248,6 +248,10 @@ class TrackerRun(NamedTuple):
     diagnostics: np.ndarray | None = None
 
 
+#: the largest range :func:`check_scans` accepts (m)
+_MAX_RANGE = 1e15
+
+
 def check_scans(z, amplitude, offsets):
     """Validate a concatenated run of scans (ranges ``> 0``, finite bearings, no NaN
     amplitude, valid offsets); returns contiguous arrays ``(z, amplitude, offsets)``."""
@@ -262,6 +266,9 @@ def check_scans(z, amplitude, offsets):
     off = as_offsets(offsets, Z.shape[0])
     if Z.shape[0] and not Z[:, 0].min() > 0.0:
         raise ValueError("z[:, 0] (range) must be > 0")
+    if Z.shape[0] and not Z[:, 0].max() < _MAX_RANGE:
+        # a gate volume grows with the range squared: beyond this it overflows to inf
+        raise ValueError(f"z[:, 0] (range) must be below {_MAX_RANGE:g} m")
     return Z, np.ascontiguousarray(A, dtype=np.float64), off
 
 
