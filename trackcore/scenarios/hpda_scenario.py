@@ -155,7 +155,14 @@ def hpda_stress_clutter_mean(lambda_vg=1.0, *, reference_range=5000.0, sigma_r=S
     rad = as_positive(radius, "radius")
     pg = as_probability(gate_probability, "gate_probability", open_low=True, open_high=True)
     g2 = -2.0 * math.log(1.0 - pg)
-    return lv * rad * rad / (r * g2 * sr * st)
+    if not g2 > 0.0:
+        raise ValueError(f"gate_probability must be large enough for a gate of non-zero size, "
+                         f"got {pg}")
+    out = lv * rad * rad / (r * g2 * sr * st)
+    if not math.isfinite(out):
+        raise ValueError("lambda_vg, radius, reference_range, sigma_r and sigma_theta give a "
+                         "clutter mean that is not finite")
+    return out
 
 
 def hpda_parameters(case: int) -> HpdaParameters:
@@ -468,6 +475,9 @@ def hpda_run_metrics(run, truth: HpdaTruth, c=500.0, p=2.0):
     p = as_positive(p, "p")
     if not (math.isfinite(p) and p >= 1.0):
         raise ValueError(f"p must be a finite number >= 1, got {p}")
+    if not -300.0 < p * math.log10(c) < 300.0:
+        # the metrics sum distances to the power p, capped at c**p
+        raise ValueError(f"c**p must stay within double range, got c = {c}, p = {p}")
     n_true = truth.alive.sum(axis=1)
     K = n_true.shape[0]
     d = run.count - n_true

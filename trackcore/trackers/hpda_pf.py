@@ -250,6 +250,9 @@ class TrackerRun(NamedTuple):
 
 #: the largest range :func:`check_scans` accepts (m)
 _MAX_RANGE = 1e15
+#: the smallest range :func:`check_scans` accepts (m; the bearing's spread in m is
+#: range x sigma_theta, and the link weights divide by its square)
+_MIN_RANGE = 1e-6
 
 
 def check_scans(z, amplitude, offsets):
@@ -264,8 +267,8 @@ def check_scans(z, amplitude, offsets):
     if np.isnan(A).any():
         raise ValueError("amplitude must not contain NaN")
     off = as_offsets(offsets, Z.shape[0])
-    if Z.shape[0] and not Z[:, 0].min() > 0.0:
-        raise ValueError("z[:, 0] (range) must be > 0")
+    if Z.shape[0] and not Z[:, 0].min() >= _MIN_RANGE:
+        raise ValueError(f"z[:, 0] (range) must be >= {_MIN_RANGE:g} m")
     if Z.shape[0] and not Z[:, 0].max() < _MAX_RANGE:
         # a gate volume grows with the range squared: beyond this it overflows to inf
         raise ValueError(f"z[:, 0] (range) must be below {_MAX_RANGE:g} m")
