@@ -164,6 +164,20 @@ def _mu_nan_for_cv_acm(res, args, kwargs) -> bool:
 #: Non-finite results that are the mathematically right answer:
 #: ``{function: [(result path prefix, kinds, check or None, reason)]}``.
 ALLOWED_NONFINITE = {
+    "log_marcum_q1": [
+        ("out", {"-inf"}, None, "log Q1 below the most negative double (about -b**2 / 2 at "
+                                "b = 1e300) rounds to -inf")],
+    "log_marcum_q1_complement": [
+        ("out", {"-inf"}, None, "log(1 - Q1) below the most negative double (about -a**2 / 2 "
+                                "at a = 1e300) rounds to -inf")],
+    "smc_phd_model": [
+        ("out.gate", {"inf"}, None, "gate = inf is the documented 'no gating'")],
+    "amplitude_likelihood_ratio": [
+        ("out", {"inf"}, None, "the ratio grows as exp((1 - c)(a - tau)): inf at a = inf, and "
+                               "the correctly rounded value beyond the largest double")],
+    "hpda_log_rank_probabilities": [
+        ("out", {"-inf"}, None, "the log of a rank probability that is zero (no clutter, "
+                                "P_G = 0 or a threshold no target reaches) is -inf")],
     "run_tbd_tracker": [
         ("out.nis", {"nan"}, None,
          "NIS of method A's pseudo-measurement only: NaN for a scan without one, or not A")],

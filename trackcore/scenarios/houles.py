@@ -116,6 +116,10 @@ class HoulesScans(NamedTuple):
         return [self.scan(k) for k in range(len(self.times))]
 
 
+#: the most false returns per scan :func:`houles_measurements` will draw (on average)
+_MAX_CLUTTER_PER_SCAN = 1e5
+
+
 def houles_measurements(truth, rng, *, sigma=20.0, pd=1.0, clutter_density=2e-6, window=2000.0,
                         times=None):
     """Simulate the sensor for the true states ``truth`` (K, >= 2) (positions first).
@@ -131,9 +135,14 @@ def houles_measurements(truth, rng, *, sigma=20.0, pd=1.0, clutter_density=2e-6,
         raise ValueError(f"truth must have shape (K, >= 2), got {truth.shape}")
     rng = as_rng(rng)
     sigma = as_nonnegative(sigma, "sigma")
+    if not sigma <= 1e100:
+        raise ValueError(f"sigma must be at most 1e100 m, got {sigma}")
     pd = as_probability(pd, "pd")
     lam = as_nonnegative(clutter_density, "clutter_density")
     window = as_positive(window, "window")
+    if not lam * window * window <= _MAX_CLUTTER_PER_SCAN:
+        raise ValueError(f"clutter_density * window**2 (false returns expected per scan) must "
+                         f"be at most {_MAX_CLUTTER_PER_SCAN:g}, got {lam * window * window:g}")
     K = truth.shape[0]
     if times is None:
         times = np.arange(K, dtype=float)

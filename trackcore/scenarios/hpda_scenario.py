@@ -248,6 +248,8 @@ def hpda_truth(variant="B", T=10.0, a_m=0.01, n_scans=451, turn_length=20):
 
 def hpda_true_count(truth: HpdaTruth) -> np.ndarray:
     """True number of targets per scan (Fig 5)."""
+    if not isinstance(truth, HpdaTruth):
+        raise TypeError(f"truth must be HpdaTruth, got {type(truth).__name__}")
     return truth.alive.sum(axis=1)
 
 
@@ -506,6 +508,9 @@ def run_hpda_trial(rng, case, algorithms=("hpda", "phd", "clustering"), keep_est
     ``{key: {"count", "aux", "conf_delay", "term_delay", ["metrics"],
     ["diagnostics"], ["run"]}}`` plus ``"n_measurements"``; ``metrics=True`` adds
     :func:`hpda_run_metrics`, HPDA runs add their selection diagnostics."""
+    for flag, name in ((keep_estimates, "keep_estimates"), (metrics, "metrics")):
+        if not isinstance(flag, (bool, np.bool_)):
+            raise TypeError(f"{name} must be True or False, got {flag!r}")
     rng = as_rng(rng)
     params = hpda_parameters(case)
     if scenario_overrides:

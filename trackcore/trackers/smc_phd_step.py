@@ -373,7 +373,10 @@ def _diag_R(R):
 def _rb_constants(R):
     i00 = 1.0 / R[0, 0]
     i11 = 1.0 / R[1, 1]
-    gnorm = 1.0 / (2.0 * math.pi * math.sqrt(R[0, 0] * R[1, 1]))
+    d = math.sqrt(R[0, 0] * R[1, 1])
+    if not (d > 0.0 and math.isfinite(i00) and math.isfinite(i11)):
+        raise ValueError("R is too small: its inverse or determinant leaves double range")
+    gnorm = 1.0 / (2.0 * math.pi * d)
     return i00, i11, gnorm
 
 
