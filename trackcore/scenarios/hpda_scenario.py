@@ -269,6 +269,8 @@ def simulate_hpda_scans(truth: HpdaTruth, params: HpdaParameters, rng) -> HpdaSc
     tau = params.tau
     # targets: raw amplitude Exp(1 + rho), reported iff > tau
     kk, tt = np.nonzero(truth.alive)
+    if not np.all(np.isfinite(truth.states[kk, tt])):
+        raise ValueError("truth.states must be finite wherever truth.alive is True")
     raw = rng.exponential(1.0 + params.snr, kk.size)
     det = raw > tau
     kk, tt, amp_t = kk[det], tt[det], raw[det]

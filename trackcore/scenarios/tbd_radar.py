@@ -420,6 +420,8 @@ def tbd_paired_trial(rng, configs, params=TbdRadarParameters(), truth=None,
     ``nees_methods``: the method letters whose NEES is computed (the particle filters'
     weighted covariance costs about a sixth of their run time; the EKF's is free).
     """
+    if not isinstance(keep, (bool, np.bool_)):
+        raise TypeError(f"keep must be True or False, got {keep!r}")
     rng = as_rng(rng)
     if not isinstance(configs, dict) or not configs:
         raise TypeError("configs must be a non-empty dict of name -> TbdTrackerConfig")

@@ -266,6 +266,8 @@ def check_scans(z, amplitude, offsets):
         raise ValueError(f"amplitude must have shape ({Z.shape[0]},), got {A.shape}")
     if np.isnan(A).any():
         raise ValueError("amplitude must not contain NaN")
+    if np.isinf(A).any():
+        raise ValueError("amplitude must be finite (not inf)")
     off = as_offsets(offsets, Z.shape[0])
     if Z.shape[0] and not Z[:, 0].min() >= _MIN_RANGE:
         raise ValueError(f"z[:, 0] (range) must be >= {_MIN_RANGE:g} m")

@@ -482,6 +482,8 @@ def two_point_init(z0, z1, R, T=1.0):
     z1 = as_vector(z1, "z1", 2)
     R = as_covariance(R, "R", 2)
     T = as_positive(T, "T")
+    if not 1e-100 <= T <= 1e100:
+        raise ValueError(f"T must lie in [1e-100, 1e100] s (2 R / T**2 stays a double), got {T}")
     x = np.r_[z1, (z1 - z0) / T]
     P = np.block([[R, R / T], [R / T, 2.0 * R / T**2]])
     return x, P
