@@ -382,6 +382,10 @@ def select_threshold(scans, threshold_db):
     thr = float(threshold_db)
     if not (np.isfinite(thr) and thr <= 3000.0):
         raise ValueError(f"threshold_db must be finite and at most 3000 dB, got {threshold_db}")
+    if not (isinstance(scans.sim_radius, (int, float)) and scans.sim_radius > 0
+            and math.isfinite(scans.sim_radius)):
+        raise ValueError(f"scans.sim_radius must be a finite positive radius, got "
+                         f"{scans.sim_radius!r}")
     if thr < scans.threshold_db - 1e-12:
         raise ValueError(f"threshold_db must be >= the simulated threshold "
                          f"{scans.threshold_db} dB, got {thr}")

@@ -501,8 +501,9 @@ def sprt_acm_discriminate(z_pre, z_a, z_b, own_states, T, config=None):
                          f"z_pre's runs, got {za.shape[1:] if single else za.shape}")
     if zb.shape != za.shape:
         raise ValueError(f"z_b must have the shape of z_a {za.shape[1:]}, got {zb.shape[1:]}")
-    if np.any(zp[:, :, 0] <= 0) or np.any(za[:, :, 0] <= 0) or np.any(zb[:, :, 0] <= 0):
-        raise ValueError("measured ranges (column 0 of z_pre, z_a, z_b) must be > 0")
+    if np.any(zp[:, :, 0] < 1e-6) or np.any(za[:, :, 0] < 1e-6) or np.any(zb[:, :, 0] < 1e-6):
+        # (a range below a micrometre makes the polar-to-Cartesian covariances degenerate)
+        raise ValueError("measured ranges (column 0 of z_pre, z_a, z_b) must be >= 1e-6 m")
     for name, z in (("z_pre", zp), ("z_a", za), ("z_b", zb)):
         if np.any(np.abs(z) > _Z_CAP):  # far beyond any sonar; keeps the filters finite
             raise ValueError(f"{name} is out of range: |r|, |theta| and |rdot| at most "
