@@ -161,9 +161,20 @@ def _mu_nan_for_cv_acm(res, args, kwargs) -> bool:
     return all(bool(np.all(np.isnan(m))) or not bool(np.any(np.isnan(m))) for m in mu)
 
 
+def _nan_where_lam_nan(res, args, kwargs) -> bool:
+    """``sprt_acm_llr``: NaN exactly in the rows of ``lam`` holding a NaN (failed runs)."""
+    lam = np.asarray(args[0] if args else kwargs["lam"], float)
+    return bool(np.array_equal(np.isnan(res), np.isnan(lam).any(axis=-1)))
+
+
 #: Non-finite results that are the mathematically right answer:
 #: ``{function: [(result path prefix, kinds, check or None, reason)]}``.
 ALLOWED_NONFINITE = {
+    "sprt_acm_llr": [
+        ("out", {"inf", "-inf"}, None,
+         "an infinite log-likelihood term (a hypothesis of zero likelihood) gives an "
+         "infinite ratio of that sign"),
+        ("out", {"nan"}, _nan_where_lam_nan, "a failed run (a row of lam with NaN) stays NaN")],
     "log_marcum_q1": [
         ("out", {"-inf"}, None, "log Q1 below the most negative double (about -b**2 / 2 at "
                                 "b = 1e300) rounds to -inf")],

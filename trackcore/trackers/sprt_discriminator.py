@@ -434,6 +434,9 @@ def sprt_acm_llr(lam):
         out = -L[..., 0] - L[..., 1] + L[..., 2] + L[..., 3]
     if np.any(np.isfinite(L).all(axis=-1) & ~np.isfinite(out)):
         raise ValueError("lam out of range: the sum of eq (21) overflows")
+    if np.any(np.isnan(out) & ~np.isnan(L).any(axis=-1)):
+        # (a row with NaN, a failed run, stays NaN)
+        raise ValueError("lam out of range: infinite terms of opposite sign in eq (21)")
     return out
 
 
