@@ -1881,7 +1881,7 @@ def run_tbd_tracker_on_map():
 @example()
 def pseudo_measurement_errors():
     from trackcore.trackers import TbdTrackerConfig as C
-    prm, truth, s = tbd_data()
+    _, truth, s = tbd_data()
     return call(s, truth.states, C(method="A", n_particles=50))
 
 

@@ -200,7 +200,7 @@ def hpda_mixture_loglik_kernel(particles, z, Rinv, logdetR, sx, sy, log_pt, log_
         r1 = wrap_angle_kernel(z[1] - math.atan2(dy, dx))
         ll = c - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
                         + Rinv[1, 1] * r1 * r1)
-        if ll != ll:
+        if math.isnan(ll):
             # an infinite innovation (a particle or sensor beyond double range; inputs are
             # finite) times a zero cross term: the Gaussian term is 0
             ll = -np.inf
