@@ -200,6 +200,10 @@ def hpda_mixture_loglik_kernel(particles, z, Rinv, logdetR, sx, sy, log_pt, log_
         r1 = wrap_angle_kernel(z[1] - math.atan2(dy, dx))
         ll = c - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
                         + Rinv[1, 1] * r1 * r1)
+        if math.isnan(ll):
+            # an infinite innovation (a particle or sensor beyond double range; inputs are
+            # finite) times a zero cross term: the Gaussian term is 0
+            ll = -np.inf
         u = ll + log_pt
         hi = max(u, log_pf_vg)
         if hi == -np.inf:
@@ -496,6 +500,10 @@ def _simulate_ranks_kernel(rng, n_draws, snr, tau, pg, clutter_mean, counts):
             counts[m, rank] += 1
 
 
+#: the largest clutter mean per gate the simulators accept
+_MAX_SIM_CLUTTER = 1e6
+
+
 def simulate_hpda_ranks(rng, n_draws, snr, tau, pg, clutter_mean, m_max):
     """Monte Carlo of the amplitude ranks from first principles.
 
@@ -514,6 +522,10 @@ def simulate_hpda_ranks(rng, n_draws, snr, tau, pg, clutter_mean, m_max):
     tau = as_nonnegative(tau, "tau")
     pg = as_probability(pg, "pg")
     lam = as_nonnegative(clutter_mean, "clutter_mean")
+    if lam > _MAX_SIM_CLUTTER:
+        # every draw loops over its clutter returns (and a Poisson draw of a huge mean
+        # overflows the integer count)
+        raise ValueError(f"clutter_mean must be <= {_MAX_SIM_CLUTTER:g}, got {lam}")
     m_max = as_count(m_max, "m_max")
     counts = np.zeros((m_max + 1, m_max + 1), dtype=np.int64)
     _simulate_ranks_kernel(rng, n, snr, tau, pg, lam, counts)

@@ -116,6 +116,10 @@ class HoulesScans(NamedTuple):
         return [self.scan(k) for k in range(len(self.times))]
 
 
+#: the most false returns per scan :func:`houles_measurements` will draw (on average)
+_MAX_CLUTTER_PER_SCAN = 1e5
+
+
 def houles_measurements(truth, rng, *, sigma=20.0, pd=1.0, clutter_density=2e-6, window=2000.0,
                         times=None):
     """Simulate the sensor for the true states ``truth`` (K, >= 2) (positions first).
@@ -131,9 +135,14 @@ def houles_measurements(truth, rng, *, sigma=20.0, pd=1.0, clutter_density=2e-6,
         raise ValueError(f"truth must have shape (K, >= 2), got {truth.shape}")
     rng = as_rng(rng)
     sigma = as_nonnegative(sigma, "sigma")
+    if not sigma <= 1e100:
+        raise ValueError(f"sigma must be at most 1e100 m, got {sigma}")
     pd = as_probability(pd, "pd")
     lam = as_nonnegative(clutter_density, "clutter_density")
     window = as_positive(window, "window")
+    if not lam * window * window <= _MAX_CLUTTER_PER_SCAN:
+        raise ValueError(f"clutter_density * window**2 (false returns expected per scan) must "
+                         f"be at most {_MAX_CLUTTER_PER_SCAN:g}, got {lam * window * window:g}")
     K = truth.shape[0]
     if times is None:
         times = np.arange(K, dtype=float)
@@ -286,6 +295,11 @@ def houles_windows():
     return man, ~man
 
 
+def _squared(threshold):
+    """``threshold**2`` for a positive float, ``inf`` where the square overflows."""
+    return threshold**2 if threshold < 1e150 else float("inf")
+
+
 def _errors(pos_err2, name="pos_err2"):
     e = as_array(pos_err2, name, ndim=(1, 2, 3), finite=False)
     if np.any(np.isnan(e)) or np.any(e < 0):
@@ -304,6 +318,15 @@ def window_mse(pos_err2):
     the square root of the mean of these over the runs.
     """
     e = _errors(pos_err2)
+    if not np.all(np.isfinite(e)):
+        raise ValueError("pos_err2 must be finite (a mean squared error over an infinite "
+                         "error is not a number to report)")
+    return _window_mse(e)
+
+
+def _window_mse(e):
+    """:func:`window_mse` of checked errors (the tables call it on every run, failed
+    runs included, and drop the failed ones afterwards)."""
     man, non = houles_windows()
     return np.stack([e.mean(axis=-1), e[..., man].mean(axis=-1), e[..., non].mean(axis=-1)],
                     axis=-1)
@@ -318,7 +341,7 @@ def position_failures(pos_err2, threshold=200.0):
     if np.any(np.isnan(e)) or np.any(e < 0):
         raise ValueError("pos_err2 must hold non-negative squared errors (no NaN)")
     threshold = as_positive(threshold, "threshold")
-    return np.any(e > threshold**2, axis=-1)
+    return np.any(e > _squared(threshold), axis=-1)
 
 
 def gate_miss_failures(target_gated, n_consecutive=3):
@@ -360,7 +383,7 @@ def failure_anatomy(pos_err2, threshold=200.0):
     """
     e = _errors(pos_err2)
     threshold = as_positive(threshold, "threshold")
-    above = e > threshold**2
+    above = e > _squared(threshold)
     failed = above.any(axis=-1)
     first = np.argmax(above, axis=-1)
     onset = np.where(failed, HOULES_TIMES[first], np.nan)
@@ -450,7 +473,7 @@ def rmse_estimate(pos_err2, failed, f=0, *, window="total"):
     ok = ~failed[:, f]
     if ok.sum() < 2:
         raise ValueError(f"filter {f} survives fewer than 2 runs; no RMSE interval")
-    m = np.where(ok, window_mse(e[:, f])[:, w], 0.0)
+    m = np.where(ok, _window_mse(e[:, f])[:, w], 0.0)
     return bootstrap_ci(_pooled_rmse, np.column_stack([m, ok.astype(float)]))
 
 
@@ -471,7 +494,7 @@ def rmse_ratio(pos_err2, failed, num, den=0, *, window="total", survivors="own")
     w = _window_index(window)
     if survivors not in ("own", "common"):
         raise ValueError(f"survivors must be 'own' or 'common', got {survivors!r}")
-    mse = window_mse(e)[:, :, w]
+    mse = _window_mse(e)[:, :, w]
     if survivors == "own":
         oka, okb = ~failed[:, a], ~failed[:, b]
         if oka.sum() < 2 or okb.sum() < 2:
@@ -525,6 +548,6 @@ def houles_table(pos_err2, failed, *, reference=0):
                             rmse_ratio(e, failed, f, ref, window=w, survivors="common")
                             for w in _WINDOWS))
     fail = tuple(rate_ci(int(failed[:, f].sum()), runs) for f in range(nF))
-    all_rm = np.sqrt(window_mse(e).mean(axis=0))
+    all_rm = np.sqrt(_window_mse(e).mean(axis=0))
     return HoulesTable(tuple(rmse), tuple(ratio), tuple(common), fail,
                        (~failed).sum(axis=0), int((~failed.any(axis=1)).sum()), all_rm)

@@ -155,7 +155,14 @@ def hpda_stress_clutter_mean(lambda_vg=1.0, *, reference_range=5000.0, sigma_r=S
     rad = as_positive(radius, "radius")
     pg = as_probability(gate_probability, "gate_probability", open_low=True, open_high=True)
     g2 = -2.0 * math.log(1.0 - pg)
-    return lv * rad * rad / (r * g2 * sr * st)
+    if not g2 > 0.0:
+        raise ValueError(f"gate_probability must be large enough for a gate of non-zero size, "
+                         f"got {pg}")
+    out = lv * rad * rad / (r * g2 * sr * st)
+    if not math.isfinite(out):
+        raise ValueError("lambda_vg, radius, reference_range, sigma_r and sigma_theta give a "
+                         "clutter mean that is not finite")
+    return out
 
 
 def hpda_parameters(case: int) -> HpdaParameters:
@@ -241,6 +248,8 @@ def hpda_truth(variant="B", T=10.0, a_m=0.01, n_scans=451, turn_length=20):
 
 def hpda_true_count(truth: HpdaTruth) -> np.ndarray:
     """True number of targets per scan (Fig 5)."""
+    if not isinstance(truth, HpdaTruth):
+        raise TypeError(f"truth must be HpdaTruth, got {type(truth).__name__}")
     return truth.alive.sum(axis=1)
 
 
@@ -260,6 +269,8 @@ def simulate_hpda_scans(truth: HpdaTruth, params: HpdaParameters, rng) -> HpdaSc
     tau = params.tau
     # targets: raw amplitude Exp(1 + rho), reported iff > tau
     kk, tt = np.nonzero(truth.alive)
+    if not np.all(np.isfinite(truth.states[kk, tt])):
+        raise ValueError("truth.states must be finite wherever truth.alive is True")
     raw = rng.exponential(1.0 + params.snr, kk.size)
     det = raw > tau
     kk, tt, amp_t = kk[det], tt[det], raw[det]
@@ -468,6 +479,9 @@ def hpda_run_metrics(run, truth: HpdaTruth, c=500.0, p=2.0):
     p = as_positive(p, "p")
     if not (math.isfinite(p) and p >= 1.0):
         raise ValueError(f"p must be a finite number >= 1, got {p}")
+    if not -300.0 < p * math.log10(c) < 300.0:
+        # the metrics sum distances to the power p, capped at c**p
+        raise ValueError(f"c**p must stay within double range, got c = {c}, p = {p}")
     n_true = truth.alive.sum(axis=1)
     K = n_true.shape[0]
     d = run.count - n_true
@@ -496,6 +510,9 @@ def run_hpda_trial(rng, case, algorithms=("hpda", "phd", "clustering"), keep_est
     ``{key: {"count", "aux", "conf_delay", "term_delay", ["metrics"],
     ["diagnostics"], ["run"]}}`` plus ``"n_measurements"``; ``metrics=True`` adds
     :func:`hpda_run_metrics`, HPDA runs add their selection diagnostics."""
+    for flag, name in ((keep_estimates, "keep_estimates"), (metrics, "metrics")):
+        if not isinstance(flag, (bool, np.bool_)):
+            raise TypeError(f"{name} must be True or False, got {flag!r}")
     rng = as_rng(rng)
     params = hpda_parameters(case)
     if scenario_overrides:

@@ -129,6 +129,9 @@ def _common(rng, n, dt, mean_duration):
     rng = as_rng(rng)
     n = as_int(n, "n", minimum=2)
     dt = as_positive(dt, "dt")
+    if not dt <= 1e100:
+        # positions grow as dt**2 n**2: beyond this they leave double range
+        raise ValueError(f"dt must be at most 1e100 s, got {dt}")
     mean_duration = as_positive(mean_duration, "mean_duration")
     return rng, n, dt, mean_duration
 

@@ -246,7 +246,11 @@ def radar_equation_snr(rcs_m2, range_m, pt_tau, params=TbdRadarParameters()):
     fl = 10.0 ** ((params.noise_figure_db + params.loss_db) / 10.0)
     num = pt_tau * params.n_pulses * g * params.wavelength ** 2 * rcs
     den = (4.0 * math.pi) ** 3 * rng_m ** 4 * BOLTZMANN * params.noise_temperature * fl
-    return num / den
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        out = num / den
+    if not np.all(np.isfinite(out)):
+        raise ValueError("range_m is too small for the SNR to stay within double range")
+    return out
 
 
 def tbd_radar_truth(params=TbdRadarParameters()):
@@ -286,6 +290,8 @@ def sample_clutter(centers, radius, threshold, density_per_km3, doppler_max, rng
     if C.shape[1] != 3:
         raise ValueError(f"centers must have shape (K, 3), got {C.shape}")
     radius = as_positive(radius, "radius")
+    if not radius <= 1e100:
+        raise ValueError(f"radius must be at most 1e100 m, got {radius}")
     threshold = float(threshold)
     if not np.isfinite(threshold) or threshold < 0:
         raise ValueError(f"threshold must be a finite linear power >= 0, got {threshold}")
@@ -374,8 +380,12 @@ def select_threshold(scans, threshold_db):
     if not isinstance(scans, TbdRadarScans):
         raise TypeError(f"scans must be TbdRadarScans, got {type(scans).__name__}")
     thr = float(threshold_db)
-    if not np.isfinite(thr):
-        raise ValueError(f"threshold_db must be finite, got {threshold_db}")
+    if not (np.isfinite(thr) and thr <= 3000.0):
+        raise ValueError(f"threshold_db must be finite and at most 3000 dB, got {threshold_db}")
+    if not (isinstance(scans.sim_radius, (int, float)) and scans.sim_radius > 0
+            and math.isfinite(scans.sim_radius)):
+        raise ValueError(f"scans.sim_radius must be a finite positive radius, got "
+                         f"{scans.sim_radius!r}")
     if thr < scans.threshold_db - 1e-12:
         raise ValueError(f"threshold_db must be >= the simulated threshold "
                          f"{scans.threshold_db} dB, got {thr}")
@@ -414,6 +424,8 @@ def tbd_paired_trial(rng, configs, params=TbdRadarParameters(), truth=None,
     ``nees_methods``: the method letters whose NEES is computed (the particle filters'
     weighted covariance costs about a sixth of their run time; the EKF's is free).
     """
+    if not isinstance(keep, (bool, np.bool_)):
+        raise TypeError(f"keep must be True or False, got {keep!r}")
     rng = as_rng(rng)
     if not isinstance(configs, dict) or not configs:
         raise TypeError("configs must be a non-empty dict of name -> TbdTrackerConfig")

@@ -248,6 +248,13 @@ class TrackerRun(NamedTuple):
     diagnostics: np.ndarray | None = None
 
 
+#: the largest range :func:`check_scans` accepts (m)
+_MAX_RANGE = 1e15
+#: the smallest range :func:`check_scans` accepts (m; the bearing's spread in m is
+#: range x sigma_theta, and the link weights divide by its square)
+_MIN_RANGE = 1e-6
+
+
 def check_scans(z, amplitude, offsets):
     """Validate a concatenated run of scans (ranges ``> 0``, finite bearings, no NaN
     amplitude, valid offsets); returns contiguous arrays ``(z, amplitude, offsets)``."""
@@ -259,9 +266,14 @@ def check_scans(z, amplitude, offsets):
         raise ValueError(f"amplitude must have shape ({Z.shape[0]},), got {A.shape}")
     if np.isnan(A).any():
         raise ValueError("amplitude must not contain NaN")
+    if np.isinf(A).any():
+        raise ValueError("amplitude must be finite (not inf)")
     off = as_offsets(offsets, Z.shape[0])
-    if Z.shape[0] and not Z[:, 0].min() > 0.0:
-        raise ValueError("z[:, 0] (range) must be > 0")
+    if Z.shape[0] and not Z[:, 0].min() >= _MIN_RANGE:
+        raise ValueError(f"z[:, 0] (range) must be >= {_MIN_RANGE:g} m")
+    if Z.shape[0] and not Z[:, 0].max() < _MAX_RANGE:
+        # a gate volume grows with the range squared: beyond this it overflows to inf
+        raise ValueError(f"z[:, 0] (range) must be below {_MAX_RANGE:g} m")
     return Z, np.ascontiguousarray(A, dtype=np.float64), off
 
 

@@ -305,6 +305,14 @@ def _finish(name, labels, F, Q, H, transition, mu0, embed, init_var, out_index, 
                        np.asarray(out_index, dtype=np.int64), **tom)
 
 
+def _std(value, name):
+    """A standard deviation: finite, >= 0 and at most 1e100 (its square stays a double)."""
+    v = as_nonnegative(value, name)
+    if not v <= 1e100:
+        raise ValueError(f"{name} must be at most 1e100, got {v}")
+    return v
+
+
 def _position_H(n):
     H = np.zeros((2, n))
     H[0, 0] = H[1, 1] = 1.0
@@ -328,8 +336,8 @@ def singer_imm_model_set(T=1.0, tau=(20.0, 5.0), sigma_m=(15.0, 60.0), sigma_cv=
         raise ValueError("tau must hold positive time constants")
     if sigma_m.min() < 0:
         raise ValueError("sigma_m must be >= 0")
-    sigma_cv = as_nonnegative(sigma_cv, "sigma_cv")
-    init_sigma_a = as_nonnegative(init_sigma_a, "init_sigma_a")
+    sigma_cv = _std(sigma_cv, "sigma_cv")
+    init_sigma_a = _std(init_sigma_a, "init_sigma_a")
     r = tau.size + 1
     F = np.zeros((r, 6, 6))
     Q = np.zeros((r, 6, 6))
@@ -382,8 +390,8 @@ def car_imm_model_set(T=1.0, omega=0.14, sigma_cv=1.0, sigma_ct=8.0, transition=
     (right).
     """
     omega = as_scalar(omega, "omega")
-    sigma_cv = as_nonnegative(sigma_cv, "sigma_cv")
-    sigma_ct = as_nonnegative(sigma_ct, "sigma_ct")
+    sigma_cv = _std(sigma_cv, "sigma_cv")
+    sigma_ct = _std(sigma_ct, "sigma_ct")
     return ct_imm_model_set([0.0, omega, -omega], [sigma_cv, sigma_ct, sigma_ct], T=T,
                             transition=transition, mu0=mu0, name="CAR-IMM")
 
@@ -457,9 +465,9 @@ def tom_imm_model_set(T=1.0, u=70.0, sigma_f=1.0, sigma_s_centre=3.0, sigma_s_tu
     ``reset_vs_variance`` and ``rotate_covariance`` as in :func:`tom_model_set`.
     """
     u = as_nonnegative(u, "u")
-    sigma_f = as_nonnegative(sigma_f, "sigma_f")
-    sc = as_nonnegative(sigma_s_centre, "sigma_s_centre")
-    st = as_nonnegative(sigma_s_turn, "sigma_s_turn")
+    sigma_f = _std(sigma_f, "sigma_f")
+    sc = _std(sigma_s_centre, "sigma_s_centre")
+    st = _std(sigma_s_turn, "sigma_s_turn")
     labels = ("TOM u=0", f"TOM u=+{u:g} (right)", f"TOM u=-{u:g} (left)")
     return tom_model_set([0.0, u, -u], [sc, st, st], sigma_f=sigma_f, T=T,
                          transition=transition, mu0=mu0, kind=kind, heading=heading,
@@ -474,6 +482,8 @@ def two_point_init(z0, z1, R, T=1.0):
     z1 = as_vector(z1, "z1", 2)
     R = as_covariance(R, "R", 2)
     T = as_positive(T, "T")
+    if not 1e-100 <= T <= 1e100:
+        raise ValueError(f"T must lie in [1e-100, 1e100] s (2 R / T**2 stays a double), got {T}")
     x = np.r_[z1, (z1 - z0) / T]
     P = np.block([[R, R / T], [R / T, 2.0 * R / T**2]])
     return x, P

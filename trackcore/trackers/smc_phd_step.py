@@ -71,6 +71,16 @@ def _grid_work_size(L):
 
 
 @nb.njit(cache=True)
+def _n_bins(span, width, cap):
+    """``int(span / width) + 1``, or ``cap + 1`` (too many) when that would exceed ``cap``
+    (so that a huge ratio never overflows the integer conversion)."""
+    x = span / width
+    if not (x < cap):
+        return cap + 1
+    return int(x) + 1
+
+
+@nb.njit(cache=True)
 def _grid_cells(H, wr, wb, iwork):
     """Bucket the particles by (range, bearing) cells at least ``wr`` by ``wb`` wide.
 
@@ -84,18 +94,23 @@ def _grid_cells(H, wr, wb, iwork):
     rmin = H[0, 0]
     rmax = H[0, 0]
     for i in range(L):
+        if not (abs(H[i, 0]) < np.inf and abs(H[i, 1]) < np.inf):
+            # a particle at infinity or NaN: no grid, every pair is tested
+            return 0.0, 0.0, 0, 0.0, 0
         rmin = min(rmin, H[i, 0])
         rmax = max(rmax, H[i, 0])
+    if not (rmax - rmin < np.inf):
+        return 0.0, 0.0, 0, 0.0, 0
     cap = max(64, 4 * L)
     cwr = wr * (1.0 + 1e-9) + 1e-9
     nbb = int(2.0 * math.pi / (wb * (1.0 + 1e-9) + 1e-12))
-    nbr = int((rmax - rmin) / cwr) + 1
+    nbr = _n_bins(rmax - rmin, cwr, cap)
     while nbr * nbb > cap:
         if nbb > 3:
             nbb = max(3, nbb // 2)
         else:
             cwr *= 2.0
-            nbr = int((rmax - rmin) / cwr) + 1
+            nbr = _n_bins(rmax - rmin, cwr, cap)
     cwb = 2.0 * math.pi / nbb
     nc = nbr * nbb
     cell = iwork[:L]
@@ -159,9 +174,15 @@ def phd_range_bearing_update_kernel(H, w, Z, kappa, pd, i00, i11, gnorm, gate2, 
         if nbr == 0:
             r0, r1, nbw = 0, 1, 1
         else:
-            rz = int(math.floor((zr - rmin) / cwr))
+            # clamped to [-2, nbr + 1] before the integer conversion (a far or non-finite
+            # measurement visits no cell, as it would unclamped)
+            fz = math.floor((zr - rmin) / cwr)
+            rz = int(fz) if -2.0 <= fz <= nbr + 1.0 else (nbr + 1 if fz > 0.0 else -2)
             r0, r1 = max(rz - 1, 0), min(rz + 2, nbr)
-            bz = int(math.floor((zb + math.pi) / cwb))
+            fb = math.floor((zb + math.pi) / cwb)
+            if not (abs(fb) < 1e15):
+                fb = np.fmod(fb, float(nbb)) if abs(fb) < np.inf else 0.0
+            bz = int(fb)
             nbw = 3
         for rb in range(r0, r1):
             for u in range(nbw):
@@ -352,7 +373,10 @@ def _diag_R(R):
 def _rb_constants(R):
     i00 = 1.0 / R[0, 0]
     i11 = 1.0 / R[1, 1]
-    gnorm = 1.0 / (2.0 * math.pi * math.sqrt(R[0, 0] * R[1, 1]))
+    d = math.sqrt(R[0, 0] * R[1, 1])
+    if not (d > 0.0 and math.isfinite(i00) and math.isfinite(i11)):
+        raise ValueError("R is too small: its inverse or determinant leaves double range")
+    gnorm = 1.0 / (2.0 * math.pi * d)
     return i00, i11, gnorm
 
 

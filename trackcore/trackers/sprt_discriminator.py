@@ -434,6 +434,9 @@ def sprt_acm_llr(lam):
         out = -L[..., 0] - L[..., 1] + L[..., 2] + L[..., 3]
     if np.any(np.isfinite(L).all(axis=-1) & ~np.isfinite(out)):
         raise ValueError("lam out of range: the sum of eq (21) overflows")
+    if np.any(np.isnan(out) & ~np.isnan(L).any(axis=-1)):
+        # (a row with NaN, a failed run, stays NaN)
+        raise ValueError("lam out of range: infinite terms of opposite sign in eq (21)")
     return out
 
 
@@ -501,8 +504,9 @@ def sprt_acm_discriminate(z_pre, z_a, z_b, own_states, T, config=None):
                          f"z_pre's runs, got {za.shape[1:] if single else za.shape}")
     if zb.shape != za.shape:
         raise ValueError(f"z_b must have the shape of z_a {za.shape[1:]}, got {zb.shape[1:]}")
-    if np.any(zp[:, :, 0] <= 0) or np.any(za[:, :, 0] <= 0) or np.any(zb[:, :, 0] <= 0):
-        raise ValueError("measured ranges (column 0 of z_pre, z_a, z_b) must be > 0")
+    if np.any(zp[:, :, 0] < 1e-6) or np.any(za[:, :, 0] < 1e-6) or np.any(zb[:, :, 0] < 1e-6):
+        # (a range below a micrometre makes the polar-to-Cartesian covariances degenerate)
+        raise ValueError("measured ranges (column 0 of z_pre, z_a, z_b) must be >= 1e-6 m")
     for name, z in (("z_pre", zp), ("z_a", za), ("z_b", zb)):
         if np.any(np.abs(z) > _Z_CAP):  # far beyond any sonar; keeps the filters finite
             raise ValueError(f"{name} is out of range: |r|, |theta| and |rdot| at most "

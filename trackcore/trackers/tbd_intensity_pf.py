@@ -389,12 +389,19 @@ def intensity_log_likelihood_ratio(particles, maps, k, snr):
 
 
 # =============================================================================== detections
+def _db_power(value, name):
+    """``10^(value/10)`` of a finite dB value at most 3000 dB (beyond, the power overflows)."""
+    v = as_scalar(value, name)
+    if not v <= 3000.0:
+        raise ValueError(f"{name} must be at most 3000 dB, got {v}")
+    return 10.0 ** (v / 10.0)
+
+
 def intensity_false_alarm_probability(threshold_db):
     """Probability that a noise cell becomes a detection: its power reaches
     ``τ = 10^(threshold_db/10)`` and is the largest of its 27-cell neighbourhood,
     ``(1 - (1 - e^{-τ})^27) / 27``."""
-    thr = as_scalar(threshold_db, "threshold_db")
-    tau = 10.0 ** (thr / 10.0)
+    tau = _db_power(threshold_db, "threshold_db")
     return float(-np.expm1(27.0 * np.log1p(-math.exp(-tau))) / 27.0)
 
 
@@ -489,7 +496,7 @@ def intensity_detections(maps, k, centre, radius, threshold_db):
     if not np.linalg.norm(c) > 0:
         raise ValueError("centre must not be at the radar (range 0)")
     R = as_positive(radius, "radius")
-    tau = 10.0 ** (as_scalar(threshold_db, "threshold_db") / 10.0)
+    tau = _db_power(threshold_db, "threshold_db")
     g = maps.grid
     pos, powr, m = _extract_kernel(maps.noise_key, k, maps.footprint_centre[k],
                                    maps.footprint_power[k], c, R, tau, g.range_cell,

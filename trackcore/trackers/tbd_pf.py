@@ -197,8 +197,9 @@ def range_azimuth_elevation(x):
 def range_azimuth_elevation_jacobian(x, with_doppler=False):
     """Jacobian ``(3, 6)`` (``(4, 6)`` with the range rate) at one state ``x`` (6,)."""
     x = _bounded(as_vector(x, "x", 6), "x")
-    if np.hypot(x[0], x[1]) == 0:
-        raise ValueError("x must not lie on the z axis (azimuth undefined)")
+    if not np.hypot(x[0], x[1]) >= 1e-100:
+        raise ValueError("x must not lie on (or within 1e-100 m of) the z axis (azimuth "
+                         "undefined)")
     H = np.empty((4 if with_doppler else 3, 6))
     _rae_jacobian_kernel(x, H, bool(with_doppler))
     return H
