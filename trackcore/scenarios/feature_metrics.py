@@ -37,6 +37,7 @@ from scipy.optimize import linear_sum_assignment
 from ..core.validation import as_array, as_int, as_positive
 
 from ..stats import Estimate, mcnemar_exact, paired_diff_ci
+from .feature_scenes import check_scene
 
 __all__ = ["SceneMetrics", "match_tracks", "scene_metrics", "vehicle_mask_iou",
            "SceneTrial", "scene_trial", "scene_trials", "scene_run",
@@ -122,6 +123,7 @@ def match_tracks(truth_xy, truth_present, reports, match_gate=10.0):
 
 def scene_metrics(scene, reports, match_gate=10.0):
     """All measures of one tracker run over one scene (vehicles are the truth)."""
+    check_scene(scene)
     veh = np.nonzero(scene.is_vehicle)[0]
     xy = scene.xy[:, veh]
     present = scene.present[:, veh]
@@ -255,6 +257,7 @@ def vehicle_mask_iou(scene, masks, margin=3):
     ``margin`` px (so other objects do not count).  ``masks`` is (K, H, W), one
     foreground mask per scene frame.  Returns an array of IoUs."""
     from ..detection.image import mask_iou
+    check_scene(scene)
     K = scene.xy.shape[0]
     n0 = scene.frames.shape[0] - K
     masks = np.asarray(masks)

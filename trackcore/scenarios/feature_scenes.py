@@ -131,6 +131,14 @@ class FeatureScene(NamedTuple):
     merged: np.ndarray | None = None
 
 
+def check_scene(scene, name="scene"):
+    """``scene`` itself if it is a :class:`FeatureScene`, else a ``TypeError`` naming it."""
+    if not isinstance(scene, FeatureScene):
+        raise TypeError(f"{name} must be a FeatureScene (from render_scene), got "
+                        f"{type(scene).__name__}")
+    return scene
+
+
 def _vehicle(kind, heading):
     I, M = vehicle_sprite(kind)
     return rotate_sprite(I, M, heading)
@@ -373,6 +381,7 @@ def _boxes_near(ba, bb):
 
 def closest_approach(scene):
     """``(frame, distance)`` of the closest approach of the scene's pair (centroids)."""
+    check_scene(scene)
     a, b = scene.pair
     d = np.hypot(*(scene.xy[:, a] - scene.xy[:, b]).T)
     k = int(np.nanargmin(d))
@@ -385,6 +394,7 @@ def segment_scene(scene, method="vibe", rng=None):
     frame and the (K, H, W) cleaned foreground masks.  ``method`` is
     ``"vibe"`` (needs ``rng``) or ``"running_average"``.  Detections are in
     image coordinates (they carry the camera jitter)."""
+    check_scene(scene)
     if method == "vibe":
         seg = ViBe(scene.frames[0].astype(float), as_rng(rng))
     elif method == "running_average":
