@@ -59,7 +59,7 @@ DATA_RECORDS = {
     "BootstrapStep", "CardinalityError", "Comparison", "FrameReport", "GOSPAResult",
     "GaussianEstimate", "HoulesRun", "HoulesTable", "IMMPDAFResult", "IMMRun", "IMMStep",
     "FailureAnatomy", "IntensityTrackResult", "IntensityTrialResult", "KalmanRun", "KalmanUpdate",
-    "OSPAResult", "PDAUpdate", "RandomManoeuvre", "SceneMetrics", "SceneTrial",
+    "OSPAResult", "PairedComparison", "PDAUpdate", "RandomManoeuvre", "SceneMetrics", "SceneTrial",
     "SmcPhdFilterRun", "SmcPhdStep", "SmcPhdUpdate", "SprtAcmDiscrimination", "SprtResult",
     "SprtSummary", "TbdErrorSummary", "TbdTrackResult", "TbdTrialResult", "TrackSnapshot",
     "TrackerRun", "FailureComparison", "MapTrackResult", "TbdRunOutcomes",
@@ -167,9 +167,19 @@ def _nan_where_lam_nan(res, args, kwargs) -> bool:
     return bool(np.array_equal(np.isnan(res), np.isnan(lam).any(axis=-1)))
 
 
+def _inf_when_a_label_absent(res, args, kwargs) -> bool:
+    """``pair_gaps``: inf exactly when label ``a`` or ``b`` is absent from ``labels``."""
+    names = ("labels", "a", "b")
+    v = dict(zip(names, args)) | kwargs
+    labels = np.asarray(v["labels"])
+    return not (np.any(labels == v["a"]) and np.any(labels == v["b"]))
+
+
 #: Non-finite results that are the mathematically right answer:
 #: ``{function: [(result path prefix, kinds, check or None, reason)]}``.
 ALLOWED_NONFINITE = {
+    "pair_gaps": [("out", {"inf"}, _inf_when_a_label_absent,
+                   "inf: there is no gap between two masks when one of them is absent")],
     "sprt_acm_llr": [
         ("out", {"inf", "-inf"}, None,
          "an infinite log-likelihood term (a hypothesis of zero likelihood) gives an "

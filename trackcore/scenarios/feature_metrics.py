@@ -187,6 +187,9 @@ def scene_metrics(scene, reports, match_gate=10.0):
     if window[0] >= 0 and len(scene.pair) == 2:
         a, b = (int(np.nonzero(veh == p)[0][0]) for p in scene.pair)
         k0, k1 = window
+        if k1 >= K:
+            raise ValueError(f"scene's crossing score window {window} ends past its {K} "
+                             f"frames (a conflict frame needs 10 frames after it)")
         before, after = (ids[k0, a], ids[k0, b]), (ids[k1, a], ids[k1, b])
         if min(before) < 0 or min(after) < 0 or before[0] == before[1]:
             crossing = "break"

@@ -240,6 +240,11 @@ def scene_layout(name):
 def pair_gaps(labels, a, b):
     """Gap in pixels between the masks of labels ``a`` and ``b`` in one label image
     (chessboard distance minus one: 0 when they touch, ``inf`` when one is absent)."""
+    labels = np.asarray(labels)
+    if labels.ndim != 2 or not np.issubdtype(labels.dtype, np.integer):
+        raise ValueError(f"labels must be a 2-D integer label image, got a {labels.ndim}-D "
+                         f"{labels.dtype} array")
+    a, b = as_int(a, "a"), as_int(b, "b")
     ma, mb = labels == a, labels == b
     if not ma.any() or not mb.any():
         return math.inf
