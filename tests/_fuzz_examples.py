@@ -993,6 +993,11 @@ def vehicle_sprite():
 
 
 @example()
+def glare_sprite():
+    return call(3.5, 180.0)
+
+
+@example()
 def bar_sprite():
     return call(12, 4, 90.0)
 
@@ -1748,6 +1753,45 @@ def scene_trials():
     return call(rng(), "S2a", {"running_average": {"JPDA": C(variant="JPDA")}}).limit(20)
 
 
+@example()
+def scene_run():
+    from trackcore.trackers import JPDATrackerConfig as C
+    return call(rng(), "S2a", {"JPDA": C(variant="JPDA")}, "running_average").limit(20)
+
+
+@example()
+def crossing_trial():
+    from trackcore.trackers import JPDATrackerConfig as C
+    return call(rng(), {"JPDA": C(variant="JPDA")}, n_frames=30, conflict=15).limit(10)
+
+
+@example()
+def closest_approach():
+    return call(scene())
+
+
+@example()
+def pair_gaps():
+    sc = scene()
+    a, b = sc.pair
+    return call(sc.labels[-1], a + 1, b + 1)
+
+
+@example()
+def feature_correlation_samples():
+    return call(rng(), 10, (20.0, 90.0), 0.2).limit(10)
+
+
+@example()
+def separate_blob_distance():
+    return call(0.35, "van", "sedan", 2.5, 2.5, 60.0).limit(10)
+
+
+@example()
+def paired_comparison():
+    return call(_runs(1), _runs(2), ("A", "B"), True)
+
+
 # ------------------------------------------------------------------ stats
 def _runs(seed=1, n=12):
     return np.random.default_rng(seed).normal(1.0, 0.3, n)
@@ -1896,3 +1940,14 @@ def tbd_nees():
 def tbd_run_outcomes():
     e = np.r_[np.zeros(5), np.full(12, 2000.0), np.zeros(3)]
     return call(np.vstack([e, np.zeros(20), np.full(20, 6000.0)]), 1000.0, 10, 5000.0)
+
+
+@example()
+def matched_config():
+    return call("FJPDA", 0.5)
+
+
+@example()
+def steady_state_gate():
+    from trackcore.trackers import JPDATrackerConfig as C
+    return call(C(variant="FJPDA"))

@@ -209,3 +209,32 @@ def test_extreme_arguments_are_refused_quickly():
         feature_correlation_samples(g, n_draws=1e9)
     with pytest.raises(ValueError, match="shift"):
         fig3_patches(g, shift=(1e300, 0.0))
+
+
+def test_scene_functions_reject_a_non_scene():
+    from trackcore.scenarios.feature_metrics import scene_metrics, vehicle_mask_iou
+    from trackcore.scenarios.feature_scenes import closest_approach
+    for f, args in ((segment_scene, ("running_average",)), (closest_approach, ()),
+                    (scene_metrics, ([],)), (vehicle_mask_iou, (np.zeros((1, 2, 2), bool),))):
+        with pytest.raises(TypeError, match="scene must be a FeatureScene"):
+            f(None, *args)
+
+
+def test_pair_gaps_checks_its_arguments():
+    from trackcore.scenarios.feature_scenes import pair_gaps
+    lab = np.zeros((20, 20), np.int8)
+    lab[2:5, 2:5], lab[2:5, 9:12] = 1, 2
+    assert pair_gaps(lab, 1, 2) == 4.0 and pair_gaps(lab, 1, 3) == math.inf
+    with pytest.raises(ValueError, match="labels"):
+        pair_gaps(lab.astype(float), 1, 2)
+    with pytest.raises(ValueError, match="labels"):
+        pair_gaps(lab[0], 1, 2)
+    with pytest.raises(TypeError, match="b must be an integer"):
+        pair_gaps(lab, 1, 2.5)
+
+
+def test_crossing_trial_window_past_the_scene_is_a_clear_error():
+    from trackcore.scenarios.feature_metrics import crossing_trial
+    with pytest.raises(ValueError, match="score window"):
+        crossing_trial(np.random.default_rng(1), {"JPDA": JPDATrackerConfig(variant="JPDA")},
+                       n_frames=20, conflict=10)

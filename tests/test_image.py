@@ -308,3 +308,19 @@ def test_image_tools_refuse_sizes_that_would_exhaust_memory():
         render_frame(np.zeros((5, 5)), [], rng, gain=1e300)
     with pytest.raises(ValueError, match="A"):
         ncc(np.full((3, 3), 1e300), np.ones((3, 3)), kind="grey")
+
+
+def test_terrain_checks_road_ranges():
+    from trackcore.detection.image import terrain
+    g = np.random.default_rng(0)
+    with pytest.raises(ValueError, match="horizontal_road"):
+        terrain(g, horizontal_road=(104,))
+    with pytest.raises(TypeError, match="horizontal_road"):
+        terrain(g, horizontal_road=np.array([[104, 136]]))
+    with pytest.raises(TypeError, match="vertical_road"):
+        terrain(g, vertical_road=104)
+    with pytest.raises(TypeError, match="vertical_road"):
+        terrain(g, vertical_road=(144, 176.5))
+    a = terrain(np.random.default_rng(1))
+    b = terrain(np.random.default_rng(1), horizontal_road=(104, 136), vertical_road=(144, 176))
+    assert np.array_equal(a, b)

@@ -190,6 +190,19 @@ def rotate_sprite(intensity, mask, heading):
 
 
 # ---------------------------------------------------------------- rendering
+def _road(road, name):
+    """``None`` or a ``(start, end)`` pair of integer pixel indices."""
+    if road is None:
+        return None
+    if isinstance(road, (str, bytes)) or np.ndim(road) != 1:
+        raise TypeError(f"{name} must be None or a (start, end) pair of integers, "
+                        f"got {type(road).__name__} of {np.ndim(road)} dimensions")
+    if len(road) != 2:
+        raise ValueError(f"{name} must be None or a (start, end) pair of integers, "
+                         f"got {len(road)} values")
+    return tuple(as_int(v, name) for v in road)
+
+
 def terrain(rng, shape=FRAME_SHAPE, mean=40.0, texture_sd=8.0, road_level=30.0,
             horizontal_road=(104, 136), vertical_road=(144, 176), diagonal_road=None):
     """The frozen textured background of a sequence.
@@ -209,6 +222,8 @@ def terrain(rng, shape=FRAME_SHAPE, mean=40.0, texture_sd=8.0, road_level=30.0,
     mean = as_scalar(mean, "mean")
     texture_sd = as_nonnegative(texture_sd, "texture_sd")
     road_level = as_scalar(road_level, "road_level")
+    horizontal_road = _road(horizontal_road, "horizontal_road")
+    vertical_road = _road(vertical_road, "vertical_road")
     bg = mean + ndimage.uniform_filter(rng.normal(0.0, texture_sd, (H, W)), size=5,
                                        mode="reflect")
     if horizontal_road is not None:

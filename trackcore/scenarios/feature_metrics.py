@@ -37,6 +37,7 @@ from scipy.optimize import linear_sum_assignment
 from ..core.validation import as_array, as_int, as_positive
 
 from ..stats import Estimate, mcnemar_exact, paired_diff_ci
+from .feature_scenes import check_scene
 
 __all__ = ["SceneMetrics", "match_tracks", "scene_metrics", "vehicle_mask_iou",
            "SceneTrial", "scene_trial", "scene_trials", "scene_run",
@@ -122,6 +123,7 @@ def match_tracks(truth_xy, truth_present, reports, match_gate=10.0):
 
 def scene_metrics(scene, reports, match_gate=10.0):
     """All measures of one tracker run over one scene (vehicles are the truth)."""
+    check_scene(scene)
     veh = np.nonzero(scene.is_vehicle)[0]
     xy = scene.xy[:, veh]
     present = scene.present[:, veh]
@@ -185,6 +187,9 @@ def scene_metrics(scene, reports, match_gate=10.0):
     if window[0] >= 0 and len(scene.pair) == 2:
         a, b = (int(np.nonzero(veh == p)[0][0]) for p in scene.pair)
         k0, k1 = window
+        if k1 >= K:
+            raise ValueError(f"scene's crossing score window {window} ends past its {K} "
+                             f"frames (a conflict frame needs 10 frames after it)")
         before, after = (ids[k0, a], ids[k0, b]), (ids[k1, a], ids[k1, b])
         if min(before) < 0 or min(after) < 0 or before[0] == before[1]:
             crossing = "break"
@@ -255,6 +260,7 @@ def vehicle_mask_iou(scene, masks, margin=3):
     ``margin`` px (so other objects do not count).  ``masks`` is (K, H, W), one
     foreground mask per scene frame.  Returns an array of IoUs."""
     from ..detection.image import mask_iou
+    check_scene(scene)
     K = scene.xy.shape[0]
     n0 = scene.frames.shape[0] - K
     masks = np.asarray(masks)

@@ -131,6 +131,14 @@ class FeatureScene(NamedTuple):
     merged: np.ndarray | None = None
 
 
+def check_scene(scene, name="scene"):
+    """``scene`` itself if it is a :class:`FeatureScene`, else a ``TypeError`` naming it."""
+    if not isinstance(scene, FeatureScene):
+        raise TypeError(f"{name} must be a FeatureScene (from render_scene), got "
+                        f"{type(scene).__name__}")
+    return scene
+
+
 def _vehicle(kind, heading):
     I, M = vehicle_sprite(kind)
     return rotate_sprite(I, M, heading)
@@ -232,6 +240,11 @@ def scene_layout(name):
 def pair_gaps(labels, a, b):
     """Gap in pixels between the masks of labels ``a`` and ``b`` in one label image
     (chessboard distance minus one: 0 when they touch, ``inf`` when one is absent)."""
+    labels = np.asarray(labels)
+    if labels.ndim != 2 or not np.issubdtype(labels.dtype, np.integer):
+        raise ValueError(f"labels must be a 2-D integer label image, got a {labels.ndim}-D "
+                         f"{labels.dtype} array")
+    a, b = as_int(a, "a"), as_int(b, "b")
     ma, mb = labels == a, labels == b
     if not ma.any() or not mb.any():
         return math.inf
@@ -373,6 +386,7 @@ def _boxes_near(ba, bb):
 
 def closest_approach(scene):
     """``(frame, distance)`` of the closest approach of the scene's pair (centroids)."""
+    check_scene(scene)
     a, b = scene.pair
     d = np.hypot(*(scene.xy[:, a] - scene.xy[:, b]).T)
     k = int(np.nanargmin(d))
@@ -385,6 +399,7 @@ def segment_scene(scene, method="vibe", rng=None):
     frame and the (K, H, W) cleaned foreground masks.  ``method`` is
     ``"vibe"`` (needs ``rng``) or ``"running_average"``.  Detections are in
     image coordinates (they carry the camera jitter)."""
+    check_scene(scene)
     if method == "vibe":
         seg = ViBe(scene.frames[0].astype(float), as_rng(rng))
     elif method == "running_average":
