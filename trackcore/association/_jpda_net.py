@@ -142,6 +142,43 @@ def _greedy_order(n_p, ptr, idx, n_c):
 
 
 @nb.njit(cache=True)
+def _open_layer(valid, side, p, k, slot_o, rem_o, used, top, k_opt, k_ret, opt_ptr, opt_slot,
+                opt_j, opt_t, sizes, ret_slot, ret_side, ret_idx):
+    """Layer ``k`` processes element ``p`` of ``side`` (0 = target, 1 = measurement): give
+    every element ``q`` of the other side that ``p`` can pair with a slot (``slot_o``), list
+    the options, then retire the elements whose last pair this was (``rem_o``).  Returns
+    ``(top, k_opt, k_ret)``; ``top = -1`` when more than 63 slots would be needed."""
+    n_o = valid.shape[0] if side == 0 else valid.shape[1]
+    for q in range(n_o):
+        if valid[q, p] if side == 0 else valid[p, q]:
+            if slot_o[q] < 0:
+                s = 0
+                while s < 64 and used[s]:
+                    s += 1
+                if s >= 63:
+                    return -1, k_opt, k_ret
+                used[s] = True
+                slot_o[q] = s
+                top = max(top, s + 1)
+            opt_slot[k_opt] = slot_o[q]
+            opt_j[k_opt] = q if side == 0 else p
+            opt_t[k_opt] = p if side == 0 else q
+            k_opt += 1
+    opt_ptr[k + 1] = k_opt
+    sizes[k, 1] = top
+    for q in range(n_o):
+        if valid[q, p] if side == 0 else valid[p, q]:
+            rem_o[q] -= 1
+            if rem_o[q] == 0:
+                ret_slot[k_ret] = slot_o[q]
+                ret_side[k_ret] = 1 - side
+                ret_idx[k_ret] = q
+                k_ret += 1
+                used[slot_o[q]] = False
+    return top, k_opt, k_ret
+
+
+@nb.njit(cache=True)
 def _plan(valid):
     """Components, orientation and order of every layer of the net for ``valid`` (m, T).
 
@@ -287,64 +324,17 @@ def _plan(valid):
             layers[k, 0] = side[c]
             layers[k, 1] = p
             sizes[k, 0] = top
-            if side[c] == 0:
-                t = p
-                for j in range(m):
-                    if valid[j, t]:
-                        if slot_m[j] < 0:
-                            s = 0
-                            while s < 64 and used[s]:
-                                s += 1
-                            if s >= 63:
-                                return (layers, sizes, opt_ptr, opt_slot, opt_j, opt_t, ret_ptr,
-                                        ret_slot, ret_side, ret_idx, np.inf, isolated)
-                            used[s] = True
-                            slot_m[j] = s
-                            top = max(top, s + 1)
-                        opt_slot[k_opt] = slot_m[j]
-                        opt_j[k_opt] = j
-                        opt_t[k_opt] = t
-                        k_opt += 1
-                opt_ptr[k + 1] = k_opt
-                sizes[k, 1] = top
-                for j in range(m):
-                    if valid[j, t]:
-                        rem_m[j] -= 1
-                        if rem_m[j] == 0:
-                            ret_slot[k_ret] = slot_m[j]
-                            ret_side[k_ret] = 1
-                            ret_idx[k_ret] = j
-                            k_ret += 1
-                            used[slot_m[j]] = False
-            else:
-                j = p
-                for t in range(T):
-                    if valid[j, t]:
-                        if slot_t[t] < 0:
-                            s = 0
-                            while s < 64 and used[s]:
-                                s += 1
-                            if s >= 63:
-                                return (layers, sizes, opt_ptr, opt_slot, opt_j, opt_t, ret_ptr,
-                                        ret_slot, ret_side, ret_idx, np.inf, isolated)
-                            used[s] = True
-                            slot_t[t] = s
-                            top = max(top, s + 1)
-                        opt_slot[k_opt] = slot_t[t]
-                        opt_j[k_opt] = j
-                        opt_t[k_opt] = t
-                        k_opt += 1
-                opt_ptr[k + 1] = k_opt
-                sizes[k, 1] = top
-                for t in range(T):
-                    if valid[j, t]:
-                        rem_t[t] -= 1
-                        if rem_t[t] == 0:
-                            ret_slot[k_ret] = slot_t[t]
-                            ret_side[k_ret] = 0
-                            ret_idx[k_ret] = t
-                            k_ret += 1
-                            used[slot_t[t]] = False
+            if side[c] == 0:  # a target: its options are measurements
+                top, k_opt, k_ret = _open_layer(valid, 0, p, k, slot_m, rem_m, used, top,
+                                                k_opt, k_ret, opt_ptr, opt_slot, opt_j,
+                                                opt_t, sizes, ret_slot, ret_side, ret_idx)
+            else:  # a measurement: its options are targets
+                top, k_opt, k_ret = _open_layer(valid, 1, p, k, slot_t, rem_t, used, top,
+                                                k_opt, k_ret, opt_ptr, opt_slot, opt_j,
+                                                opt_t, sizes, ret_slot, ret_side, ret_idx)
+            if top < 0:  # more than 63 slots at once
+                return (layers, sizes, opt_ptr, opt_slot, opt_j, opt_t, ret_ptr, ret_slot,
+                        ret_side, ret_idx, np.inf, isolated)
             ret_ptr[k + 1] = k_ret
             while top > 0 and not used[top - 1]:
                 top -= 1
