@@ -126,14 +126,16 @@ def overlap_scene(T: int, seed: int = 0):
     return x0, P0, Z, lam
 
 
+def _model():
+    """The scene's model for trackcore: ``(F, Q, H, R, gamma)``."""
+    return (cv_transition(1.0), cv_process_noise(1.0, Q_PSD, kind="cwna"), position_matrix(),
+            np.eye(2) * R_VAR, gate_threshold(PG, 2))
+
+
 def trackcore_hypotheses(x0, P0, Z, lam):
     """Predictions, gates and likelihoods with trackcore's public functions: ``(lik,
     valid)`` in the form Stone Soup's PDAHypothesiser uses (``N / P_G``)."""
-    F = cv_transition(1.0)
-    Q = cv_process_noise(1.0, Q_PSD, kind="cwna")
-    H = position_matrix()
-    R = np.eye(2) * R_VAR
-    gamma = gate_threshold(PG, 2)
+    F, Q, H, R, gamma = _model()
     T = x0.shape[0]
     m = Z.shape[0]
     valid = np.zeros((m, T), dtype=bool)
@@ -150,11 +152,7 @@ def trackcore_hypotheses(x0, P0, Z, lam):
 def trackcore_hypotheses_kernels(x0, P0, Z, lam):
     """:func:`trackcore_hypotheses` the way trackcore's JPDA tracker computes them: the
     tracker validated its inputs once and calls the numba kernels directly."""
-    F = cv_transition(1.0)
-    Q = cv_process_noise(1.0, Q_PSD, kind="cwna")
-    H = position_matrix()
-    R = np.eye(2) * R_VAR
-    gamma = gate_threshold(PG, 2)
+    F, Q, H, R, gamma = _model()
     T = x0.shape[0]
     m = Z.shape[0]
     valid = np.zeros((m, T), dtype=bool)

@@ -389,29 +389,9 @@ def _assigned_capped(A, B, c, p):
 
 
 @nb.njit(cache=True)
-def _bottleneck_kernel(D):
-    """Smallest achievable largest entry of a perfect matching of a square ``D``."""
-    n = D.shape[0]
-    values = np.unique(D.ravel())
-    lo, hi = 0, values.shape[0] - 1
-    over = np.empty((n, n))
-    cols = np.empty(n, dtype=np.int64)
-    while lo < hi:
-        mid = (lo + hi) // 2
-        for i in range(n):
-            for j in range(n):
-                over[i, j] = 1.0 if D[i, j] > values[mid] else 0.0
-        if min_cost_assignment_kernel(over, cols) == 0.0:
-            hi = mid
-        else:
-            lo = mid + 1
-    return values[lo]
-
-
-@nb.njit(cache=True)
 def _bottleneck_rect_kernel(T):
     """Smallest achievable largest entry when every row of ``T`` (r, k), ``r <= k``,
-    is assigned a distinct column."""
+    is assigned a distinct column (for a square ``T``: of a perfect matching)."""
     r, k = T.shape
     values = np.unique(T.ravel())
     lo, hi = 0, values.shape[0] - 1
@@ -532,7 +512,7 @@ def ospa_kernel(X, Y, c, p):
     if p == np.inf:
         if m != n:
             return c, 0.0, c
-        v = _bottleneck_kernel(_capped_distances_kernel(X, Y, c))
+        v = _bottleneck_rect_kernel(_capped_distances_kernel(X, Y, c))
         return v, v, 0.0
     if m == 0:
         return c, 0.0, c
