@@ -4,9 +4,11 @@ Every chapter has ``claims.yml``; every record has a place in the paper, a verdi
 allowed set and, where the verdict rests on a number, a glued value with its interval that
 the chapter's notebook stored; every row of the chapter's *Our targets* is decided by a claim.
 """
+import json
 import sys
 
 import pytest
+import yaml
 
 from _book import BOOK, chapter_indexes, rel
 
@@ -36,3 +38,185 @@ def test_scorecard_page_renders_every_registry():
         data = scorecard.load(p)
         assert f"## {data['title']}" in text
         assert text.count(f"`{p.parent.name}/") >= len(data["claims"])
+
+
+# --------------------------------------------------------------------------- the rule engine
+
+EST = scorecard.parse_estimate
+
+
+@pytest.mark.parametrize("text, expected", [
+    ("0.094 [0.071, 0.118]", (0.094, 0.071, 0.118)),
+    ("−0.036 [−0.056, −0.024]", (-0.036, -0.056, -0.024)),
+    ("92.5 [90.8, 94.0] %", (92.5, 90.8, 94.0)),
+    ("e = 1.5e-3 [1e-3, 2.0e-3] (n = 100)", (1.5e-3, 1e-3, 2e-3)),
+    ("+0.038 [+0.038, +0.113]", (0.038, 0.038, 0.113)),
+])
+def test_parse_estimate_reads_the_first_interval(text, expected):
+    assert EST(text) == pytest.approx(expected)
+
+
+@pytest.mark.parametrize("text", ["0.3", "reproduced", "[1, 2]", "3 [2, 1]"])
+def test_parse_estimate_rejects_text_without_a_sound_interval(text):
+    with pytest.raises(ValueError):
+        EST(text)
+
+
+@pytest.mark.parametrize("est, rule, verdict", [
+    # "A below B" on a paired difference
+    ((-0.04, -0.06, -0.02), {"type": "direction", "expect": "below"}, "reproduced"),
+    ((0.04, 0.02, 0.06), {"type": "direction", "expect": "below"}, "not reproduced"),
+    ((0.01, -0.01, 0.03), {"type": "direction", "expect": "below"}, "undecided"),
+    ((0.0, 0.0, 0.0), {"type": "direction", "expect": "below"}, "undecided"),
+    ((1.3, 1.1, 1.5), {"type": "direction", "expect": "above", "ref": 1}, "reproduced"),
+    # a tie inside a declared equivalence margin refutes a "better than" claim
+    ((0.001, -0.004, 0.006), {"type": "direction", "expect": "below", "margin": 0.01},
+     "not reproduced"),
+    ((0.001, -0.02, 0.006), {"type": "direction", "expect": "below", "margin": 0.01},
+     "undecided"),
+    # bands around the paper's number
+    ((0.10, 0.08, 0.12), {"type": "band", "paper": 0.1, "tol": 0.05}, "reproduced"),
+    ((0.13, 0.11, 0.14), {"type": "band", "paper": 0.1, "tol": 0.05},
+     "reproduced within tolerance"),
+    ((0.3, 0.2, 0.4), {"type": "band", "paper": 0.1, "tol": 0.05}, "not reproduced"),
+    ((0.14, 0.12, 0.17), {"type": "band", "paper": 0.1, "tol": 0.05}, "undecided"),
+    ((0.2, 0.1, 0.25), {"type": "band", "hi": 0.3}, "reproduced"),
+    ((98.0, 97.0, 99.0), {"type": "band", "paper": 98, "rel_tol": 0.02}, "reproduced"),
+])
+def test_decide(est, rule, verdict):
+    assert scorecard.decide(rule, est) == verdict
+
+
+def test_combinations():
+    assert scorecard.combine_all(["reproduced", "reproduced"]) == "reproduced"
+    assert scorecard.combine_all(["reproduced", "undecided"]) == "undecided"
+    assert scorecard.combine_all(["undecided", "not reproduced"]) == "not reproduced"
+    assert scorecard.combine_all(["reproduced", "reproduced within tolerance"]) == \
+        "reproduced within tolerance"
+    r = scorecard.combine_readings
+    assert r(["reproduced"] * 3) == "reproduced"
+    assert r(["reproduced", "not reproduced", "reproduced"]) == "depends on reading"
+    assert r(["reproduced", "undecided"]) == "undecided"
+    assert r(["not reproduced", "undecided"]) == "undecided"
+    assert r(["reproduced", "reproduced within tolerance"]) == "reproduced within tolerance"
+
+
+def _nb(path, glued):
+    """A minimal notebook whose outputs glue the given text values."""
+    outputs = [{"output_type": "display_data", "data": {"text/plain": repr(v)},
+                "metadata": {"scrapbook": {"name": k, "mime_prefix": ""}}}
+               for k, v in glued.items()]
+    nb = {"cells": [{"cell_type": "code", "source": "", "metadata": {}, "outputs": outputs,
+                     "execution_count": 1}], "metadata": {}, "nbformat": 4,
+          "nbformat_minor": 5}
+    path.write_text(json.dumps(nb), encoding="utf-8")
+
+
+def _registry(tmp_path, claims, readings=None):
+    ch = tmp_path / "000-x"
+    ch.mkdir()
+    (ch / "index.md").write_text("# X\n\n## Our targets\n\n| id | t |\n|--|--|\n| T1 | a |\n",
+                                 encoding="utf-8")
+    _nb(ch / "nb.ipynb", {"d98": "-0.03 [-0.05, -0.01]", "d99": "0.01 [-0.01, 0.02]",
+                          "d995": "-0.04 [-0.06, -0.02]", "up": "0.02 [0.01, 0.03]",
+                          "txt": "no interval", "v": "reproduced"})
+    data = {"paper": "p", "title": "X", "measures": {"pd": "paired difference"},
+            "readings": readings or [], "claims": claims}
+    path = ch / "claims.yml"
+    path.write_text(yaml.safe_dump(data, allow_unicode=True), encoding="utf-8")
+    return path
+
+
+def _claim(**kw):
+    c = {"id": "c1", "claim": "A beats B", "where": "Sec. 1", "kind": "quantitative",
+         "evidence": "nb", "measure": "pd", "ours": "nb::d98",
+         "rule": {"type": "direction", "expect": "below"}, "targets": ["T1"]}
+    c.update(kw)
+    return {k: v for k, v in c.items() if v is not None}
+
+
+PI = [{"name": "pi", "parameter": "prior", "default": "0.99", "why": "the scenario's lives",
+       "values": [{"value": "0.98", "why": "a"}, {"value": "0.99", "why": "b"},
+                  {"value": "0.995", "why": "c"}]}]
+
+
+def test_a_sound_registry_passes_and_computes(tmp_path):
+    path = _registry(tmp_path, [_claim()])
+    assert scorecard.problems(path) == []
+    data = scorecard.load(path)
+    ev = scorecard.evaluate(data, data["claims"][0], scorecard._Glue(path.parent))
+    assert ev["verdict"] == "reproduced"
+
+
+@pytest.mark.parametrize("claim, message", [
+    (_claim(rule=None), "needs a 'rule'"),
+    (_claim(measure="nope"), "not declared in the chapter's measures"),
+    (_claim(verdict="not reproduced"), "disagrees with the rule"),
+    (_claim(ours="nb::txt"), "has no 'value [lo, hi]'"),
+    (_claim(ours="nb::missing"), "is not glued"),
+    (_claim(ours=None), "or 'pending'"),
+    (_claim(rule={"type": "direction", "expect": "sideways"}), "expect: below | above"),
+    (_claim(rule={"type": "band", "paper": 1}), "needs lo, hi, tol or rel_tol"),
+    (_claim(rule={"type": "band", "lo": 2, "hi": 1}), "is empty"),
+    (_claim(rule={"type": "magic"}), "rule type must be one of"),
+    (_claim(rule={"all": [{"type": "direction", "expect": "below"}]}), "at least two parts"),
+    (_claim(kind="qualitative", rule={"type": "direction", "expect": "below"}),
+     "only quantitative claims take a rule"),
+    (_claim(verdict_key="nb::v", ours="nb::up"), "the notebook's verdict"),
+    (_claim(readings=["pi"]), "maps each reading"),
+    (_claim(readings=["pi"], ours={"0.98": "nb::d98"}), "cover the readings grid"),
+    (_claim(readings=["nope"], ours={"x": "nb::d98"}), "not declared"),
+    (_claim(kind="erratum", rule=None, measure=None, verdict="not reproduced", why="w"),
+     "an erratum needs class"),
+    (_claim(kind="erratum", rule=None, measure=None, verdict="not reproduced", why="w",
+            **{"class": "paper error"}), "needs 'printed'"),
+    (_claim(kind="erratum", rule=None, measure=None, verdict="not reproduced", why="w",
+            **{"class": "none"}), "needs verdict 'reproduced'"),
+])
+def test_registry_problems_are_caught(tmp_path, claim, message):
+    path = _registry(tmp_path, [claim], readings=PI)
+    problems = scorecard.problems(path)
+    assert any(message in p for p in problems), problems
+
+
+def test_readings_grid_decides_depends_on_reading(tmp_path):
+    ours = {"0.98": "nb::d98", "0.99": "nb::d99", "0.995": "nb::d995"}
+    path = _registry(tmp_path, [_claim(readings=["pi"], ours=ours)], readings=PI)
+    assert scorecard.problems(path) == []
+    data = scorecard.load(path)
+    ev = scorecard.evaluate(data, data["claims"][0], scorecard._Glue(path.parent))
+    # reproduced at 0.98 and 0.995, a tie at 0.99: undecided, not "reproduced"
+    assert ev["verdict"] == "undecided"
+    assert (ev["holds"], ev["cells"]) == (2, 3)
+    ours["0.99"] = "nb::up"   # fails at 0.99: holds in some readings, fails in another
+    path.write_text(yaml.safe_dump({**data, "claims": [_claim(readings=["pi"], ours=ours)]}),
+                    encoding="utf-8")
+    data = scorecard.load(path)
+    ev = scorecard.evaluate(data, data["claims"][0], scorecard._Glue(path.parent))
+    assert ev["verdict"] == "depends on reading"
+
+
+def test_pending_estimate_is_undecided(tmp_path):
+    path = _registry(tmp_path, [_claim(ours=None, pending="paired e at prior 0.995")])
+    assert scorecard.problems(path) == []
+    data = scorecard.load(path)
+    ev = scorecard.evaluate(data, data["claims"][0], scorecard._Glue(path.parent))
+    assert ev["verdict"] == "undecided"
+
+
+def test_every_quantitative_claim_of_the_book_has_a_computed_verdict():
+    typed = [cid for cid, e in scorecard.evaluate_all().items()
+             if e["claim"].get("kind") == "quantitative" and not e["eval"].get("computed")
+             and e["claim"].get("verdict") != "not testable"]
+    assert not typed, f"quantitative claims without a rule: {typed}"
+
+
+def test_counts_add_up_and_readme_is_current():
+    table = scorecard.counts()
+    total = table["all"]
+    assert total["n"] == sum(len(scorecard.load(p)["claims"]) for p in scorecard.registries())
+    assert total["n"] == sum(total["claims"].values()) + sum(total["errata"].values())
+    assert None not in total["claims"], "a claim has no verdict"
+    readme = (BOOK.parent / "README.md").read_text(encoding="utf-8")
+    assert scorecard.readme_block() in readme, (
+        "README's scorecard counts are stale: run `python book/_ext/scorecard.py --readme`")
