@@ -647,7 +647,8 @@ def counts_markdown(chapter: str | None = None, evaluated: dict | None = None,
         row = table[k]
         name = row["title"]
         if links and k != "all":
-            name = f"{{doc}}`{row['title']} <{k}/index>`" if links == "doc" else row["title"]
+            name = f"{{doc}}`{row['title']} </book/{k}/index>`" if links == "doc" \
+                else row["title"]
         if k == "all":
             name = f"**{name}**"
         cells = [str(row["n"])] + [str(row["claims"][v]) for v in COUNT_COLUMNS] + \
