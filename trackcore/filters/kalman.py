@@ -27,7 +27,7 @@ import numpy as np
 from ..core.logmath import LOG_2PI
 from ..core.validation import as_array, as_vector, finite_result
 from ..models.measurement import wrap_angle_kernel
-from ._fastcheck import checked, checked_cov
+from ._fastcheck import check_result_cov, checked, checked_cov
 
 __all__ = [
     "GaussianEstimate",
@@ -435,6 +435,7 @@ def kf_predict(x, P, F, Q):
     P_out = np.empty((n, n))
     kf_predict_kernel(x, P, F, Q, x_out, P_out)
     _finite_outputs("the prediction", "x, P, F and Q", x_out, P_out)
+    check_result_cov(P_out, "the predicted covariance", (("Q", Q), ("P", P)))
     return GaussianEstimate(x_out, P_out)
 
 
@@ -472,6 +473,7 @@ def _finish_update(x, P, innov, H, R, n, m):
         raise ValueError(_NOT_PD)
     _finite_outputs("the update", "x, P, z, z_pred, H and R", x_out, P_out, innov, S, K,
                     nis, loglik)
+    check_result_cov(P_out, "the posterior covariance", (("R", R), ("P", P)))
     return KalmanUpdate(x_out, P_out, innov, S, K, float(nis), float(loglik))
 
 
@@ -490,6 +492,7 @@ def kf_update(x, P, z, H, R):
         raise ValueError(_NOT_PD)
     _finite_outputs("the update", "x, P, z, H and R", x_out, P_out, innov, S, K, nis,
                     loglik)
+    check_result_cov(P_out, "the posterior covariance", (("R", R), ("P", P)))
     return KalmanUpdate(x_out, P_out, innov, S, K, float(nis), float(loglik))
 
 
