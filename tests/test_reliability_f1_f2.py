@@ -3,10 +3,11 @@ rounding at its own scale) and F2 (``pg = 1``, no gate).
 
 F1.  The one PSD rule (``trackcore.core.validation.as_covariance``): eigenvalues down to
 ``-1e-9 max|eig|`` are rounding.  It is applied to every covariance argument and to every
-covariance a single-step call returns (``kf_predict``, ``kf_update``, ``ekf_update``,
-``imm_mix``, ``imm_combine``, ``imm_step``, ``pda_update``).  An argument whose negative
-eigenvalue is rounding at its own scale but not at the result's gives a ``ValueError`` that
-names it, instead of a covariance with a negative variance; a result that fails through the
+covariance a filter call returns (``kf_predict``, ``kf_update``, ``ekf_update``, ``imm_mix``,
+``imm_combine``, ``imm_step``, ``pda_update``; every scan's for ``kalman_filter_run``,
+``kalman_filter_batch`` and ``imm_filter_run``).  An argument whose negative eigenvalue is
+rounding at its own scale but not at the result's gives a ``ValueError`` that names it,
+instead of a covariance with a negative variance; a result that fails through the
 computation's own rounding (no argument has a negative eigenvalue) is projected onto the PSD
 cone.  Results that pass the rule are the kernels' outputs, bit for bit.
 
@@ -22,8 +23,8 @@ import pytest
 from trackcore.association import (gate_probability, gate_threshold, gate_volume,
                                    mahalanobis_gate, pda_betas, pda_log_likelihood, pda_update)
 from trackcore.core.validation import as_covariance
-from trackcore.filters import (ekf_update, imm_combine, imm_mix, imm_step, kf_predict,
-                               kf_update)
+from trackcore.filters import (ekf_update, imm_combine, imm_filter_run, imm_mix, imm_step,
+                               kalman_filter_batch, kalman_filter_run, kf_predict, kf_update)
 from trackcore.filters.kalman import kf_update_kernel
 from trackcore.models import cv_process_noise, cv_transition, position_matrix
 from trackcore.trackers import ClusteringConfig, HpdaPfConfig, cv_model_set, imm_pdaf_track
@@ -104,6 +105,37 @@ def test_f1_rounding_of_the_update_itself_is_projected():
                                err_msg="projection moved the posterior more than needed")
     assert u.x.tobytes() == xo.tobytes(), "the mean must not change"
     kf_predict(u.x, u.P, np.eye(2), np.zeros((2, 2)))  # the next call accepts it
+
+
+def _run_case(q):
+    zs = np.zeros((50, 2))
+    return (zs, np.zeros(4), np.eye(4) * q, cv_transition(1.0), cv_process_noise(1.0, q), H,
+            np.diag([1.0, -1e-9]))
+
+
+@pytest.mark.parametrize("q", [1e-4, 1e-2])
+def test_f1_whole_run_functions_name_R(q):
+    """With process noise q the posterior's scale is about q, so R's -1e-9 breaks the rule
+    in every scan's covariance (relative -3e-6 at q = 1e-4) without making S indefinite:
+    the whole-run functions used to return those covariances silently."""
+    zs, x0, P0, F, Q, Hm, R = _run_case(q)
+    with pytest.raises(ValueError, match=r"Ps\[\d+\].*\bR \(smallest eigenvalue"):
+        kalman_filter_run(zs, x0, P0, F, Q, Hm, R)
+    with pytest.raises(ValueError, match=r"Ps\[0\]\[\d+\].*\bR \(smallest eigenvalue"):
+        kalman_filter_batch(np.stack([zs, zs]), x0, P0, F, Q, Hm, R)
+    zm = np.stack([zs, zs])
+    zm[1, 3] = np.nan  # a run with a missed scan is checked on its own
+    with pytest.raises(ValueError, match=r"\bR \(smallest eigenvalue"):
+        kalman_filter_batch(zm, x0, P0, F, Q, Hm, R)
+    with pytest.raises(ValueError, match=r"\bR \(smallest eigenvalue"):
+        imm_filter_run(zs, np.stack([x0, x0]), np.stack([P0, P0]), np.array([0.5, 0.5]),
+                       np.array([[0.9, 0.1], [0.1, 0.9]]), np.stack([F, F]), np.stack([Q, Q]),
+                       Hm, R)
+    R0 = np.diag([1.0, 0.0])  # the same with R PSD: every scan follows the rule
+    run = kalman_filter_run(zs, x0, P0, F, Q, Hm, R0)
+    assert all(_passes_rule(P) for P in run.Ps), "a scan's covariance fails the PSD rule"
+    batch = kalman_filter_batch(zm, x0, P0, F, Q, Hm, R0)
+    assert batch.Ps[0].tobytes() == run.Ps.tobytes(), "batch run 0 differs from the run"
 
 
 def test_f1_imm_mix_and_combine_results_follow_the_rule():

@@ -112,7 +112,7 @@ def as_covariance(x, name: str, n: int | None = None, *, strict: bool = False,
     to ``-rtol * max|eig|`` to absorb rounding.
 
     This is the one PSD rule of the package.  The filters apply it to every
-    covariance argument (here) and to every covariance a single-step call returns
+    covariance argument (here) and to every covariance a filter call returns
     (:func:`covariance_result_violation`): a negative eigenvalue that is rounding
     at an argument's own scale can be far from rounding at the scale of the result
     (an ``R`` with eigenvalue ``-1e-9`` against a posterior of scale ``1e-8``);

@@ -77,20 +77,22 @@ def checked_cov_stack(x, name: str, r: int, n: int) -> np.ndarray:
 
 
 @nb.njit(cache=True, inline="always")
-def _factorises(P, j, L):
-    """True when the Cholesky factorisation of ``P[j]`` succeeds (``L`` scratch)."""
+def _factorises(P, j, L, D):
+    """True when ``P[j] = L D L^T`` (unit lower ``L``) has every pivot ``D > 0``: the
+    Cholesky test without square roots (``L``, ``D`` scratch)."""
     n = P.shape[1]
     for a in range(n):
-        for b in range(a + 1):
+        for b in range(a):
             s = P[j, a, b]
             for k in range(b):
-                s -= L[a, k] * L[b, k]
-            if a == b:
-                if not s > 0.0:
-                    return False
-                L[a, a] = math.sqrt(s)
-            else:
-                L[a, b] = s / L[b, b]
+                s -= L[a, k] * L[b, k] * D[k]
+            L[a, b] = s / D[b]
+        s = P[j, a, a]
+        for k in range(a):
+            s -= L[a, k] * L[a, k] * D[k]
+        if not s > 0.0:
+            return False
+        D[a] = s
     return True
 
 
@@ -98,8 +100,9 @@ def _factorises(P, j, L):
 def _all_factorise(P):
     """True when every matrix of the C-contiguous (r, n, n) stack ``P`` factorises."""
     L = np.empty((P.shape[1], P.shape[1]))
+    D = np.empty(P.shape[1])
     for j in range(P.shape[0]):
-        if not _factorises(P, j, L):
+        if not _factorises(P, j, L, D):
             return False
     return True
 

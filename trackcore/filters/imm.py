@@ -388,4 +388,6 @@ def imm_filter_run(zs, xs0, Ps0, mu0, PI, Fs, Qs, H, R):
     if Kn:  # a non-finite estimate stays non-finite (see kalman._finite_run)
         _finite_outputs("the IMM estimate", "zs, xs0, Ps0, Fs, Qs, H and R", x_out[-1],
                         P_out[-1], ll_out)
+        check_result_cov(P_out, "the combined covariance P",
+                         (("R", R), ("Ps0", Ps0), ("Qs", Qs)))
     return IMMRun(x_out, P_out, mu_out, ll_out)
