@@ -138,6 +138,21 @@ def test_f1_whole_run_functions_name_R(q):
     assert batch.Ps[0].tobytes() == run.Ps.tobytes(), "batch run 0 differs from the run"
 
 
+def test_f1_whole_run_rounding_is_projected():
+    """The exactly singular R of the projection test in a run: every scan's covariance
+    used to break the rule (down to -2e-6 relative); now each follows it, the means are
+    untouched (the recursion is the kernel's) and the batch agrees with the run."""
+    R = 1e8 * np.array([[1.0, 3.0], [3.0, 9.0]])
+    args = (np.zeros(2), 0.01 * np.eye(2), np.eye(2), 1e-4 * np.eye(2), np.eye(2), R)
+    zs = np.random.default_rng(5).normal(size=(10, 2))
+    run = kalman_filter_run(zs, *args)
+    assert all(_passes_rule(P) for P in run.Ps), "a scan's covariance fails the PSD rule"
+    batch = kalman_filter_batch(np.stack([zs, zs]), *args)
+    for k in range(2):
+        assert batch.Ps[k].tobytes() == run.Ps.tobytes(), f"batch run {k} differs"
+        assert batch.xs[k].tobytes() == run.xs.tobytes(), f"batch means of run {k} differ"
+
+
 def test_f1_imm_mix_and_combine_results_follow_the_rule():
     xs = np.array([[0.0, 0.0], [1.0, 0.0]])
     Ps = np.stack([np.eye(2), np.diag([2.0, 1.0])])
