@@ -51,7 +51,8 @@ def test_unit_ball_and_gate_volume():
     S3 = random_spd(np.random.default_rng(0), 3)
     assert gate_volume(2.0, S3) == pytest.approx(
         4 * math.pi / 3 * 2.0 ** 1.5 * math.sqrt(np.linalg.det(S3)), rel=1e-12)
-    assert gate_volume(math.inf, S) == math.inf
+    with pytest.raises(ValueError, match="no finite gate volume"):  # pg = 1: no gate (F2)
+        gate_volume(math.inf, S)
     with pytest.raises(ValueError, match="S"):
         gate_volume(1.0, np.diag([1.0, -1.0]))
     with pytest.raises(ValueError, match="gamma"):
@@ -400,7 +401,8 @@ def test_overflow_raises_and_empty_scan_likelihood():
     S = np.array([[2.0, 0.3], [0.3, 1.0]])
     with pytest.raises(ValueError, match="overflows"):
         gate_volume(1e300, np.eye(3))
-    assert gate_volume(math.inf, S) == math.inf
+    with pytest.raises(ValueError, match="gamma = inf"):  # no gate: no volume (F2)
+        gate_volume(math.inf, S)
     with pytest.raises(ValueError, match="overflows"):
         mahalanobis_gate(np.array([[1e300, 0.0]]), np.zeros(2), S, 9.21)
     # nonparametric PDA: an empty scan has the likelihood of a miss, 1 - PD PG

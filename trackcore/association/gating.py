@@ -9,6 +9,14 @@ gate with probability ``P_G = pg`` (Bar-Shalom & Li).  The gate volume is
 ``V = c_d gamma^{d/2} |S|^{1/2}`` with ``c_d = pi^{d/2} / Gamma(d/2 + 1)``
 the volume of the unit ball in ``d`` dimensions.
 
+``pg = 1`` is "no gate": ``gamma = inf`` (:func:`gate_threshold`), every
+measurement is validated (:func:`mahalanobis_gate`), ``P_G = 1``
+(:func:`gate_probability`), and there is no finite gate volume:
+:func:`gate_volume` raises ``ValueError`` for ``gamma = inf`` rather than return
+``inf``.  Without a gate the clutter density must come from the parametric
+model (a given ``lambda``, as in :func:`trackcore.association.pda_betas` with
+``mode="parametric"`` and the IMM-PDAF tracker), not from ``m / V``.
+
 ``mahalanobis_gate_kernel`` is the numba kernel behind :func:`mahalanobis_gate`
 for the trackers' kernels; it assumes valid input and is not public.
 """
@@ -21,7 +29,7 @@ import numpy as np
 from scipy import special, stats
 
 from ..core.validation import (as_covariance, as_int, as_measurements, as_nonnegative,
-                               as_probability, as_vector, finite_result)
+                               as_probability, as_scalar, as_vector, finite_result)
 from ..filters.kalman import cholesky_lower_kernel
 from ..models.measurement import wrap_angle_kernel
 
@@ -37,7 +45,9 @@ __all__ = [
 def gate_threshold(pg, d):
     """Gate threshold ``gamma`` with ``P(chi2_d <= gamma) = pg``.
 
-    ``pg`` in (0, 1]; ``pg = 1`` gives ``gamma = inf`` (no gating).
+    ``pg`` in (0, 1]; ``pg = 1`` gives ``gamma = inf``: no gate, every
+    measurement is validated, and the clutter density must be parametric (the
+    gate has no finite volume; see the module docstring).
     """
     pg = as_probability(pg, "pg", open_low=True)
     d = as_int(d, "d", minimum=1)
@@ -61,10 +71,19 @@ def unit_ball_volume(d):
     return float(math.exp(0.5 * d * math.log(math.pi) - math.lgamma(0.5 * d + 1.0)))
 
 
+_NO_GATE_VOLUME = ("gamma = inf (pg = 1: no gate) has no finite gate volume; without a gate "
+                   "the clutter density must be the parametric lambda "
+                   "(pda_betas(..., mode='parametric', clutter_density=lambda)), not m / V")
+
+
 def gate_volume(gamma, S):
-    """Volume ``c_d gamma^{d/2} |S|^{1/2}`` of ``{nu : nu^T S^-1 nu <= gamma}``."""
-    if isinstance(gamma, float) and gamma == math.inf:
-        return math.inf
+    """Volume ``c_d gamma^{d/2} |S|^{1/2}`` of ``{nu : nu^T S^-1 nu <= gamma}``.
+
+    ``gamma = inf`` (``pg = 1``, no gate) raises ``ValueError``: that gate has no
+    finite volume, and the nonparametric clutter density ``m / V`` that would use
+    it is undefined (use the parametric density)."""
+    if as_scalar(gamma, "gamma", finite=False) == math.inf:
+        raise ValueError(_NO_GATE_VOLUME)
     gamma = as_nonnegative(gamma, "gamma")
     S = as_covariance(S, "S", strict=True)
     d = S.shape[0]

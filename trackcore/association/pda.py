@@ -8,7 +8,12 @@ density ``lambda``), for ``m`` gated measurements with Gaussian likelihoods
     beta_0 ∝ lambda (1 - P_D P_G)
 
 normalised to sum to one.  The nonparametric (diffuse prior) form replaces
-``lambda`` by ``m / V`` with ``V`` the gate volume.  All of it is computed in
+``lambda`` by ``m / V`` with ``V`` the gate volume.  ``P_G = pg = 1`` is "no
+gate" (every measurement validated, ``1 - P_D P_G = 1 - P_D``); the gate then has
+no finite volume, so ``lambda`` must come from the parametric model: the
+nonparametric form with ``volume = inf`` raises ``ValueError`` (a finite
+``volume`` with ``pg = 1`` is the volume of the region the ``m`` measurements
+were drawn from).  All of it is computed in
 log space (``log_lik=``), so likelihoods that underflow do not break it.
 
 State update with the combined innovation ``nu = sum_j beta_j nu_j``:
@@ -33,6 +38,7 @@ import numpy as np
 from ..core.validation import (as_array, as_covariance, as_int, as_matrix, as_measurements,
                                as_nonnegative, as_positive, as_probability, as_scalar, as_vector,
                                finite_result)
+from ..filters._fastcheck import check_result_cov
 from ..filters.kalman import kf_update_kernel
 from ..models.measurement import wrap_angle_kernel
 
@@ -123,6 +129,10 @@ def _log_terms(lik, pd, pg, clutter_density, log_lik, mode, volume, log_clutter_
     elif mode == "nonparametric":
         if volume is None:
             raise ValueError("volume (gate volume V) is required for mode='nonparametric'")
+        if as_scalar(volume, "volume", finite=False) == math.inf:
+            raise ValueError("volume must be finite for mode='nonparametric' (lambda = m / V); "
+                             "pg = 1 (no gate) has no finite gate volume: use "
+                             "mode='parametric' with clutter_density")
         V = as_positive(volume, "volume")
         lam = m / V
     else:
@@ -297,4 +307,5 @@ def pda_update(x_pred, P_pred, z, z_pred, H, R, betas, beta0, angle_index=None):
                          "(check P_pred and R)")
     for a in (x, P, nu, S, K):
         finite_result(a, "the PDA update", "x_pred, P_pred, z, z_pred, H and R")
+    check_result_cov(P, "the PDA posterior covariance", (("R", R), ("P_pred", P_pred)))
     return PDAUpdate(x, P, nu, S, K)

@@ -93,13 +93,35 @@ def as_square_matrix(x, name: str, n: int | None = None) -> np.ndarray:
     return arr
 
 
+#: The positive semi-definiteness rule (see :func:`as_covariance`): eigenvalues of a
+#: covariance down to ``-PSD_RTOL * max|eig|`` are rounding.
+PSD_RTOL = 1e-9
+
+
+def _psd_tolerance(eig, rtol: float = PSD_RTOL) -> float:
+    """The rule's tolerance for a matrix with (ascending) eigenvalues ``eig``."""
+    return rtol * max(float(np.max(np.abs(eig))), 1e-300)
+
+
 def as_covariance(x, name: str, n: int | None = None, *, strict: bool = False,
-                  rtol: float = 1e-9) -> np.ndarray:
+                  rtol: float = PSD_RTOL) -> np.ndarray:
     """A symmetric positive semi-definite (``strict``: definite) matrix.
 
     Symmetry is checked to ``rtol`` relative to the largest entry; the returned
     matrix is exactly symmetrised.  Semi-definiteness allows eigenvalues down
     to ``-rtol * max|eig|`` to absorb rounding.
+
+    This is the one PSD rule of the package.  The filters apply it to every
+    covariance argument (here) and to every covariance a filter call returns
+    (:func:`covariance_result_violation`): a negative eigenvalue that is rounding
+    at an argument's own scale can be far from rounding at the scale of the result
+    (an ``R`` with eigenvalue ``-1e-9`` against a posterior of scale ``1e-8``);
+    such a call raises ``ValueError`` naming the argument instead of returning a
+    covariance with a negative variance.  A result that fails the rule although no
+    argument has a negative eigenvalue (beyond the eigenvalue solver's rounding)
+    fails through the rounding of the computation itself; it is returned with its
+    negative eigenvalues set to 0 (:func:`psd_projection`).  Results that pass the
+    rule are returned as computed.
     """
     arr = as_square_matrix(x, name, n)
     if arr.size == 0:
@@ -109,13 +131,71 @@ def as_covariance(x, name: str, n: int | None = None, *, strict: bool = False,
         raise ValueError(f"{name} must be symmetric")
     arr = 0.5 * (arr + arr.T)
     eig = np.linalg.eigvalsh(arr)
-    tol = rtol * max(float(np.max(np.abs(eig))), 1e-300)
+    tol = _psd_tolerance(eig, rtol)
     if strict and eig[0] <= 0:
         raise ValueError(f"{name} must be positive definite (smallest eigenvalue {eig[0]:.3g})")
     if eig[0] < -tol:
         raise ValueError(
             f"{name} must be positive semi-definite (smallest eigenvalue {eig[0]:.3g})")
     return np.ascontiguousarray(arr)
+
+
+#: An argument's negative eigenvalue above ``-PSD_NOISE * max|eig|`` is the eigenvalue
+#: solver's own rounding (an exactly singular matrix), not a property of the matrix.
+PSD_NOISE = 100 * np.finfo(np.float64).eps
+
+
+def covariance_result_violation(P, what: str, arguments):
+    """The PSD rule of :func:`as_covariance` applied to a result.
+
+    ``P`` is an ``(n, n)`` covariance or an ``(r, n, n)`` stack that a call computed
+    from covariance ``arguments`` (``(name, matrix or stack)`` pairs, each already
+    accepted by :func:`as_covariance`).  Returns ``None`` when every matrix of ``P``
+    passes the rule.  Otherwise returns ``(message, blamed, bad)``: ``blamed`` is True
+    when an argument has a negative eigenvalue beyond the solver's rounding
+    (``PSD_NOISE``), rounding at the argument's own scale but not at the result's, and
+    the message names it; else the violation is rounding of the computation itself
+    (for instance an exactly singular ``R`` far larger than ``P``).  ``bad`` lists the
+    indices of the failing matrices of the stack.  (The fast path, a Cholesky
+    factorisation that succeeds, and the action taken are in the filters.)
+    """
+    P = np.asarray(P, dtype=np.float64)
+    stack = P.reshape((-1,) + P.shape[-2:])
+    eig = np.linalg.eigvalsh(0.5 * (stack + np.swapaxes(stack, -1, -2)))
+    bad = [j for j in range(stack.shape[0]) if eig[j, 0] < -_psd_tolerance(eig[j])]
+    if not bad:
+        return None
+    worst = min(bad, key=lambda j: eig[j, 0])
+    where = f"{what}[{worst}]" if P.ndim == 3 else what
+    msg = (f"{where} is not positive semi-definite (smallest eigenvalue "
+           f"{eig[worst, 0]:.3g}, largest {eig[worst, -1]:.3g})")
+    blamed = []
+    for name, A in arguments:
+        A = np.asarray(A, dtype=np.float64)
+        if A.size == 0:
+            continue
+        ea = np.linalg.eigvalsh(A.reshape((-1,) + A.shape[-2:]))
+        rel = ea[:, 0] / np.maximum(np.max(np.abs(ea), axis=1), 1e-300)
+        j = int(np.argmin(rel))
+        if rel[j] < -PSD_NOISE:
+            label = f"{name}[{j}]" if A.ndim == 3 else name
+            blamed.append((label, f"{label} (smallest eigenvalue {ea[j, 0]:.3g}, largest "
+                                  f"{ea[j, -1]:.3g})"))
+    if blamed:
+        names = " and ".join(label for label, _ in blamed)
+        return (f"{msg}: {', '.join(text for _, text in blamed)} must be positive "
+                f"semi-definite at the scale of the result; a negative eigenvalue that is "
+                f"rounding at its own scale is not rounding there (pass a positive "
+                f"semi-definite {names}, e.g. with its negative eigenvalues set to 0)",
+                True, bad)
+    return msg, False, bad
+
+
+def psd_projection(A):
+    """The symmetric matrix ``A`` with its negative eigenvalues set to 0."""
+    w, V = np.linalg.eigh(0.5 * (A + A.T))
+    out = (V * np.maximum(w, 0.0)) @ V.T
+    return 0.5 * (out + out.T)
 
 
 def as_measurements(z, name: str, d: int | None = None) -> np.ndarray:

@@ -28,7 +28,7 @@ import numba as nb
 import numpy as np
 
 from ..core.validation import as_array, as_vector
-from ._fastcheck import checked, checked_cov, checked_cov_stack
+from ._fastcheck import check_result_cov, checked, checked_cov, checked_cov_stack
 from .kalman import (GaussianEstimate, _finite_outputs, _predict_into, _update_into,
                      _update_scratch)
 
@@ -276,6 +276,7 @@ def imm_mix(mu, PI, xs, Ps):
     x0s, P0s, c_bar = np.empty((r, n)), np.empty((r, n, n)), np.empty(r)
     imm_mix_kernel(mu, PI, xs, Ps, x0s, P0s, c_bar)
     _finite_outputs("the mixed estimate", "xs and Ps", x0s, P0s)
+    check_result_cov(P0s, "the mixed covariance P0s", (("Ps", Ps),))
     return x0s, P0s, c_bar
 
 
@@ -306,6 +307,7 @@ def imm_combine(mu, xs, Ps):
     x, P = np.empty(n), np.empty((n, n))
     imm_combine_kernel(mu, xs, Ps, x, P)
     _finite_outputs("the combined estimate", "xs and Ps", x, P)
+    check_result_cov(P, "the combined covariance", (("Ps", Ps),))
     return GaussianEstimate(x, P)
 
 
@@ -335,7 +337,7 @@ def imm_step(xs, Ps, mu, PI, Fs, Qs, z, H, R):
     m = z.shape[0]
     xs, Ps, mu, PI, Fs, Qs, H, R, r, n = _check_imm_inputs(xs, Ps, mu, PI, Fs, Qs, H, R, m)
     xs = xs.copy()
-    Ps = Ps.copy()
+    Ps_in, Ps = Ps, Ps.copy()
     mu_new = np.empty(r)
     logliks = np.empty(r)
     total, bad = _imm_cycle(xs, Ps, mu, PI, Fs, Qs, z, False, H, R, np.empty((r, n)),
@@ -349,6 +351,10 @@ def imm_step(xs, Ps, mu, PI, Fs, Qs, z, H, R):
     x, P = np.empty(n), np.empty((n, n))
     imm_combine_kernel(mu_new, xs, Ps, x, P)
     _finite_outputs("the IMM cycle", "xs, Ps, Fs, Qs, z, H and R", xs, Ps, x, P, logliks)
+    args = (("R", R), ("Ps", Ps_in), ("Qs", Qs))
+    if check_result_cov(Ps, "the mode-matched posterior covariance Ps", args):
+        imm_combine_kernel(mu_new, xs, Ps, x, P)  # combine the projected covariances
+    check_result_cov(P, "the combined posterior covariance", args)
     return IMMStep(xs, Ps, mu_new, x, P, logliks)
 
 
@@ -382,4 +388,6 @@ def imm_filter_run(zs, xs0, Ps0, mu0, PI, Fs, Qs, H, R):
     if Kn:  # a non-finite estimate stays non-finite (see kalman._finite_run)
         _finite_outputs("the IMM estimate", "zs, xs0, Ps0, Fs, Qs, H and R", x_out[-1],
                         P_out[-1], ll_out)
+        check_result_cov(P_out, "the combined covariance P",
+                         (("R", R), ("Ps0", Ps0), ("Qs", Qs)))
     return IMMRun(x_out, P_out, mu_out, ll_out)

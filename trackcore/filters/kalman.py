@@ -15,6 +15,15 @@ Update (Bar-Shalom, Li & Kirubarajan 2001, sec. 5.2):
 ``log N(nu; 0, S)`` and the NIS ``nu^T S^{-1} nu`` come from the same factor.
 An empty measurement (``m = 0``) is a valid update that changes nothing
 (``nis = 0``, ``loglik = 0``).
+
+Covariances follow one PSD rule (:func:`trackcore.core.validation.as_covariance`):
+every covariance argument and every covariance a public function returns (each
+scan's for the whole-run functions) has no eigenvalue below ``-1e-9`` times its
+largest.  An argument whose negative eigenvalue is rounding at its own scale but
+breaks the rule in the result (an ``R`` with eigenvalue ``-1e-9`` against a
+posterior of scale ``1e-8``) raises ``ValueError`` naming it; a result broken by
+the arithmetic's own rounding is projected onto the PSD matrices.  A result that
+follows the rule is returned exactly as the kernels computed it.
 """
 from __future__ import annotations
 
@@ -27,7 +36,7 @@ import numpy as np
 from ..core.logmath import LOG_2PI
 from ..core.validation import as_array, as_vector, finite_result
 from ..models.measurement import wrap_angle_kernel
-from ._fastcheck import checked, checked_cov
+from ._fastcheck import check_result_cov, checked, checked_cov
 
 __all__ = [
     "GaussianEstimate",
@@ -435,6 +444,7 @@ def kf_predict(x, P, F, Q):
     P_out = np.empty((n, n))
     kf_predict_kernel(x, P, F, Q, x_out, P_out)
     _finite_outputs("the prediction", "x, P, F and Q", x_out, P_out)
+    check_result_cov(P_out, "the predicted covariance", (("Q", Q), ("P", P)))
     return GaussianEstimate(x_out, P_out)
 
 
@@ -472,6 +482,7 @@ def _finish_update(x, P, innov, H, R, n, m):
         raise ValueError(_NOT_PD)
     _finite_outputs("the update", "x, P, z, z_pred, H and R", x_out, P_out, innov, S, K,
                     nis, loglik)
+    check_result_cov(P_out, "the posterior covariance", (("R", R), ("P", P)))
     return KalmanUpdate(x_out, P_out, innov, S, K, float(nis), float(loglik))
 
 
@@ -490,6 +501,7 @@ def kf_update(x, P, z, H, R):
         raise ValueError(_NOT_PD)
     _finite_outputs("the update", "x, P, z, H and R", x_out, P_out, innov, S, K, nis,
                     loglik)
+    check_result_cov(P_out, "the posterior covariance", (("R", R), ("P", P)))
     return KalmanUpdate(x_out, P_out, innov, S, K, float(nis), float(loglik))
 
 
@@ -551,7 +563,25 @@ def kalman_filter_run(zs, x0, P0, F, Q, H, R):
     if bad >= 0:
         raise ValueError(f"innovation covariance S is not positive definite at scan {bad}")
     _finite_run(zs, xs, Ps, nis, loglik)
+    check_result_cov(Ps, "the filtered covariance Ps", (("R", R), ("Q", Q), ("P0", P0)))
     return KalmanRun(xs, Ps, nis, loglik)
+
+
+def _check_batch_covariances(nis, Ps, R, Q, P0):
+    """The PSD rule on a batch's covariances: the runs without a missed scan share one
+    recursion (checked once, and projected together), the others are checked each.
+    ``nis`` (n_runs, K) is NaN exactly at the missed scans (checked by _finite_run)."""
+    args = (("R", R), ("Q", Q), ("P0", P0))
+    if math.isfinite(float(nis.sum())):
+        missed = np.zeros(nis.shape[0], dtype=bool)
+    else:
+        missed = np.isnan(nis).any(axis=1)
+    clean = np.flatnonzero(~missed)
+    if clean.size and check_result_cov(Ps[clean[0]], f"the filtered covariance Ps[{clean[0]}]",
+                                       args):
+        Ps[clean] = Ps[clean[0]]
+    for r in np.flatnonzero(missed):
+        check_result_cov(Ps[r], f"the filtered covariance Ps[{r}]", args)
 
 
 def _finite_run(zs, xs, Ps, nis, loglik):
@@ -610,4 +640,5 @@ def kalman_filter_batch(zs, x0, P0, F, Q, H, R):
             raise ValueError(f"innovation covariance S is not positive definite at scan {scan} "
                              f"of run {run}")
         _finite_run(zs, xs, Ps, nis, loglik)
+        _check_batch_covariances(nis, Ps, R, Q, P0)
     return KalmanRun(xs, Ps, nis, loglik)

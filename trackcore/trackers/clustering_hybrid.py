@@ -53,8 +53,9 @@ from ..association.jpda import _enumerate_kernel
 from ..core.validation import as_array, as_rng
 from ..filters.particle import systematic_indices_kernel
 from ..models.measurement import wrap_angle_kernel
-from .hpda_pf import (TrackerRun, _finite, _flag, _integer, _motion_and_sensor,
-                      _particle_moments, check_scans, jump_markov_propagate_kernel)
+from .hpda_pf import (TrackerRun, _finite, _flag, _gate_probability, _integer,
+                      _motion_and_sensor, _particle_moments, check_scans,
+                      jump_markov_propagate_kernel)
 
 __all__ = ["ClusteringConfig", "clustering_run", "clustering_link_rates"]
 
@@ -109,7 +110,8 @@ class ClusteringConfig:
         _integer(self, "eta", 1)
         _integer(self, "tau_b", 1)
         _integer(self, "tau_d", 1)
-        _finite(self, "gate_probability", low=0.0, high=1.0, low_open=True, high_open=True)
+        _gate_probability(self, "the gate also decides which measurements each track's JPDA "
+                                "and support use: with no gate that would be every measurement")
         if self.link_d2 is not None:
             _finite(self, "link_d2", low=0.0, low_open=True)
         _finite(self, "link_motion_std", low=0.0)

@@ -96,6 +96,16 @@ def _finite(obj, name, *, low=None, high=None, low_open=False, high_open=False):
     return v
 
 
+def _gate_probability(obj, why):
+    """``gate_probability`` in (0, 1); ``pg = 1`` (no gate) is rejected with ``why``."""
+    v = obj.gate_probability
+    if (isinstance(v, (int, float, np.integer, np.floating))
+            and not isinstance(v, (bool, np.bool_)) and v == 1):
+        raise ValueError(f"gate_probability must be < 1, got {float(v)}: pg = 1 means no gate "
+                         f"(g^2 = inf), and {why}")
+    return _finite(obj, "gate_probability", low=0.0, high=1.0, low_open=True, high_open=True)
+
+
 def _integer(obj, name, minimum):
     v = getattr(obj, name)
     if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
@@ -201,7 +211,8 @@ class HpdaPfConfig:
         _integer(self, "n_particles", 1)
         _finite(self, "p_confirm", low=0.0, high=1.0, low_open=True)
         _finite(self, "p_terminate", low=0.0, high=1.0, high_open=True)
-        _finite(self, "gate_probability", low=0.0, high=1.0, low_open=True, high_open=True)
+        _gate_probability(self, "the HPDA's clutter model needs a finite gate volume V_G "
+                                "(clutter mean lambda V_G, false-return density 1 / V_G)")
         _finite(self, "pi11", low=0.0, high=1.0)
         _finite(self, "pi12", low=0.0, high=1.0)
         _finite(self, "p_initial", low=0.0, high=1.0, low_open=True, high_open=True)

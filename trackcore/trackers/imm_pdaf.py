@@ -738,8 +738,9 @@ def imm_pdaf_track_packed(models, z, offsets, x0, P0, R, *, pd=1.0, pg=0.99,
     ``x0``, ``P0``: Cartesian initial estimate ``[x, y, vx, vy]`` at the time
     before the first scan (e.g. :func:`two_point_init`).  ``R`` (2, 2):
     measurement covariance.  ``pd`` = P_D, ``pg`` = P_G (the gate is the
-    ``pg`` chi-square quantile, ``pg = 1`` disables gating);
-    ``clutter_density`` = lambda (m^-2, 0 for no clutter).  For the TOM the
+    ``pg`` chi-square quantile, ``pg = 1`` disables gating: every measurement is
+    validated and ``P_G = 1``); ``clutter_density`` = lambda (m^-2, 0 for no
+    clutter), the parametric clutter density (so ``pg = 1`` needs no gate volume).  For the TOM the
     heading chord starts from ``prev_position`` (default ``x0[:2] - T v0``,
     which for a two-point initialisation is the first measurement) and
     ``x0[:2]``; the initial velocity ``x0[2:]`` must not be zero, because its
