@@ -153,5 +153,7 @@ def test_binary_exact_coverage(n):
             acc_r += wi
             hit_r += wi * ratio_ci(x, y).contains(1.0)
     total = w[keep].sum()
+    print(f"\nn={n}: exact coverage mean_ci {cov:.4f}, paired_diff_ci {hit_d / total:.4f}, "
+          f"ratio_ci {hit_r / acc_r:.4f}")
     assert hit_d / total >= TARGET, f"paired_diff_ci, n = {n}: exact coverage {hit_d / total:.4f}"
     assert hit_r / acc_r >= TARGET, f"ratio_ci, n = {n}: exact coverage {hit_r / acc_r:.4f}"
