@@ -36,7 +36,7 @@ import os
 
 import numpy as np
 import pytest
-from scipy.special import gammaln, ndtr
+from scipy.special import gammaln
 from scipy.stats import binom, multivariate_normal
 
 from trackcore.stats import MIN_RUNS, mean_ci, paired_diff_ci, ratio_ci
