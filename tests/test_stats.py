@@ -387,3 +387,11 @@ def test_estimate_value_must_lie_in_its_interval():
     with pytest.raises(ValueError, match="outside"):
         Estimate(5.0, 0.0, 1.0)
     assert Estimate(1.0, 0.0, 1.0).contains(1.0)
+
+
+def test_spread_at_rounding_level_is_no_spread():
+    # 47 runs equal up to rounding (0.1 + 0.2 and 0.3), 3 that differ: most resamples
+    # have a spread of 1e-17, which must not studentize to an enormous t
+    x = np.r_[np.full(24, 0.1 + 0.2), np.full(23, 0.3), [0.2, 0.25, 0.28]]
+    with pytest.raises(ValueError, match="too few distinct values"):
+        mean_ci(x)

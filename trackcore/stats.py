@@ -360,13 +360,16 @@ def _student_mean(v, level, n_boot, seed, method):
     n = v.size
     rng = np.random.default_rng(seed)
     m, se = v.mean(), v.std(ddof=1) / math.sqrt(n)
+    tol = _REL_TOL * float(np.max(np.abs(v)))
     t = np.empty(n_boot)
     done = 0
     while done < n_boot:
         b = min(_CHUNK, n_boot - done)
         r = v[rng.integers(0, n, size=(b, n))]
+        sb = r.std(axis=1, ddof=1)
+        sb[sb <= tol] = 0.0  # spread at rounding level is no spread
         with np.errstate(divide="ignore", invalid="ignore"):
-            t[done:done + b] = (r.mean(axis=1) - m) / (r.std(axis=1, ddof=1) / math.sqrt(n))
+            t[done:done + b] = (r.mean(axis=1) - m) / (sb / math.sqrt(n))
         done += b
     return _studentized(m, se, t, level, n, method)
 
@@ -401,11 +404,15 @@ def _student_ratio(x, y, paired, level, n_boot, seed, n, method):
         if np.any(my <= 0):
             raise ValueError(_ZERO_DEN.format(k=int(np.sum(my <= 0)), b=b))
         rb = xb.mean(axis=1) / my
+        seb = _ratio_se(xb, yb, rb, paired)
+        seb[seb <= _REL_TOL * abs(r)] = 0.0  # spread at rounding level is no spread
         with np.errstate(divide="ignore", invalid="ignore"):
-            t[done:done + b] = (rb - r) / _ratio_se(xb, yb, rb, paired)
+            t[done:done + b] = (rb - r) / seb
         done += b
     return _studentized(r, se, t, level, n, method)
 
+
+_REL_TOL = 1e-9  # resample spreads below this, relative to the values, are rounding noise
 
 _ZERO_DEN = ("ratio_ci: {k} of {b} resamples have mean(y) <= 0, where the ratio is "
              "undefined (y is zero or negative in too many runs); compare the runs with "
