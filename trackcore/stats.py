@@ -34,7 +34,8 @@ Bernoulli(0.05) runs (pairs: correlated draws of each family).
   means from ``BCA_RUNS`` runs on, where it reaches 93 % too.
 * runs that are all equal (or a difference or ratio that is the same in every run) have
   no interval: a ValueError, never a zero-width interval, so :func:`compare` never calls
-  a degenerate interval a tie.  0/1 runs are the exception: all-zero runs still get the
+  a degenerate interval a tie.  Runs nearly all equal (too many resamples without spread,
+  spreads below 1e-9 of the values counting as none) are a ValueError too.  0/1 runs are the exception: all-zero runs still get the
   exact interval of a rate, e.g. ``[0, 0.52]`` for 0 events in 5 runs.
 
 Bootstrap intervals draw 10 000 resamples (at most ``N_BOOT_MAX`` = 10^6) from a fixed
