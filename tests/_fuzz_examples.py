@@ -1793,7 +1793,7 @@ def paired_comparison():
 
 
 # ------------------------------------------------------------------ stats
-def _runs(seed=1, n=12):
+def _runs(seed=1, n=40):  # 40 >= trackcore.stats.MIN_RUNS
     return np.random.default_rng(seed).normal(1.0, 0.3, n)
 
 

@@ -3,7 +3,7 @@
 One place for the statistics the chapters use to say "X beats Y", "target met" or "the
 paper's claim fails":
 
-* :func:`mean_ci` -- a bootstrap interval of a mean over Monte Carlo runs;
+* :func:`mean_ci` -- an interval of a mean over Monte Carlo runs;
 * :func:`paired_diff_ci` and :func:`ratio_ci` -- the difference or ratio of two means, with
   the runs resampled *together* when they are paired (same seeds, same scans);
 * :func:`diff_ci` -- the same for two independent samples;
@@ -15,16 +15,41 @@ paper's claim fails":
   whose interval contains zero is a tie; a target band is *met* only when the whole interval
   lies inside it, *missed* when the whole interval lies outside, and *undecided* otherwise.
 
-Bootstrap intervals are bias-corrected and accelerated (BCa, :cite:t:`efron1993bootstrap`,
-ch. 14) with 10 000 resamples drawn from a fixed seed, so that a notebook prints the same
-interval on every machine.  The acceleration constant comes from the exact jackknife of the
-statistic, which for means, differences and ratios of means costs O(n).
+Which interval a mean, a paired difference or a ratio of means gets depends on the data
+and the number of runs ``n``; the rule exists to keep one promise, measured by simulation
+in ``tests/test_stats_coverage.py``: at every ``n`` a function accepts, its "95 %" interval
+covers the true value in at least 93 % of experiments on normal, lognormal (sigma = 1) and
+Bernoulli(0.05) runs (pairs: correlated draws of each family).
+
+* **0/1 runs** (events): the exact Clopper-Pearson interval of a rate (:func:`mean_ci`),
+  Newcombe's hybrid score interval of a paired difference of rates
+  (:func:`paired_diff_ci`), an adjusted log-ratio interval of a paired ratio of rates
+  (:func:`ratio_ci`), at any ``n >= 2``.  From ``BCA_RUNS`` = 500 runs on, with at least
+  ``MIN_EVENTS`` = 10 events and non-events (differing runs for pairs), the BCa bootstrap.
+* **other values**: at least ``MIN_RUNS`` = 40 runs, else a ValueError (the mean of 30
+  lognormal runs was covered in only 92.7 % of experiments).  The studentized bootstrap interval
+  (bootstrap-t; :cite:t:`efron1993bootstrap`, ch. 12), taken as the hull of its
+  equal-tailed and symmetric forms, for means below ``BCA_RUNS`` runs and for every
+  difference and ratio; the bias-corrected and accelerated (BCa) bootstrap (ch. 14) for
+  means from ``BCA_RUNS`` runs on, where it reaches 93 % too.
+* runs that are all equal (or a difference or ratio that is the same in every run) have
+  no interval: a ValueError, never a zero-width interval, so :func:`compare` never calls
+  a degenerate interval a tie.  Runs nearly all equal (too many resamples without spread,
+  spreads below 1e-9 of the values counting as none) are a ValueError too.  0/1 runs are the exception: all-zero runs still get the
+  exact interval of a rate, e.g. ``[0, 0.52]`` for 0 events in 5 runs.
+
+Bootstrap intervals draw 10 000 resamples (at most ``N_BOOT_MAX`` = 10^6) from a fixed
+seed, so that a notebook prints the same interval on every machine; the BCa acceleration
+comes from the exact jackknife of the statistic (O(n) for means, differences and ratios).
+Values of any finite size are accepted: huge ones (~1e300) are rescaled by a power of two
+internally.  :func:`diff_ci` (independent samples) and :func:`bootstrap_ci` (any statistic)
+keep the BCa interval at every ``n``; their coverage is not part of the promise.
 
 Every interval is returned as an :class:`Estimate`, which formats as ``value [lo, hi]``::
 
-    >>> est = mean_ci([0.1, 0.3, 0.2, 0.4])
-    >>> f"{est:.2f}"        # doctest: +SKIP
-    '0.25 [0.15, 0.35]'
+    >>> est = mean_ci(errors)     # one value per run, 40 runs at least
+    >>> f"{est:.3f}"        # doctest: +SKIP
+    '0.094 [0.071, 0.118]'
 """
 from __future__ import annotations
 
@@ -34,6 +59,7 @@ from typing import Callable
 
 import numpy as np
 from scipy.special import ndtr, ndtri
+from scipy.stats import beta as _beta_dist
 from scipy.stats import binom
 
 __all__ = [
@@ -51,6 +77,10 @@ __all__ = [
     "band_verdict",
     "LEVEL",
     "N_BOOT",
+    "N_BOOT_MAX",
+    "MIN_RUNS",
+    "BCA_RUNS",
+    "MIN_EVENTS",
 ]
 
 LEVEL = 0.95
@@ -58,6 +88,25 @@ LEVEL = 0.95
 
 N_BOOT = 10_000
 """Bootstrap resamples per interval."""
+
+N_BOOT_MAX = 1_000_000
+"""Largest ``n_boot`` accepted (a larger request is a ValueError, not a MemoryError)."""
+
+MIN_RUNS = 40
+"""Fewest runs of non-0/1 values :func:`mean_ci`, :func:`paired_diff_ci` and
+:func:`ratio_ci` accept: below it no interval here reaches 93 % coverage on skewed
+(lognormal) runs, so they refuse with a ValueError."""
+
+BCA_RUNS = 500
+"""From this many runs on, :func:`mean_ci` and (for 0/1 runs only, with ``MIN_EVENTS``)
+:func:`paired_diff_ci` and :func:`ratio_ci` use the BCa interval, which reaches 93 %
+coverage there on every family tested; below it, the studentized interval (other values)
+or the exact / score interval (0/1 values).  Differences and ratios of non-0/1 runs use
+the studentized interval at every n."""
+
+MIN_EVENTS = 10
+"""0/1 runs with fewer events (or non-events; for paired runs: fewer discordant pairs) than
+this keep the exact / score interval at any number of runs."""
 
 _CHUNK = 2_000  # resamples per vectorised block (bounds memory at n_runs * _CHUNK floats)
 
@@ -105,6 +154,9 @@ class Estimate:
             raise TypeError(f"Estimate: method must be a string, got {self.method!r}")
         if not self.lo <= self.hi:
             raise ValueError(f"Estimate: need lo <= hi, got [{self.lo}, {self.hi}]")
+        if not self.lo <= self.value <= self.hi:
+            raise ValueError(f"Estimate: value {self.value} lies outside its interval "
+                             f"[{self.lo}, {self.hi}]")
         if not 0.0 < self.level < 1.0:
             raise ValueError(f"Estimate: level must lie in (0, 1), got {self.level}")
 
@@ -182,6 +234,8 @@ def _check_n_boot(n_boot) -> int:
         raise TypeError("n_boot must be an integer")
     if n_boot < 100:
         raise ValueError(f"n_boot must be at least 100, got {n_boot}")
+    if n_boot > N_BOOT_MAX:
+        raise ValueError(f"n_boot must be at most {N_BOOT_MAX}, got {n_boot}")
     return int(n_boot)
 
 
@@ -209,15 +263,41 @@ def _bca(theta_hat, boot, jack, level, n, method):
                         max(float(hi), float(theta_hat)), level, n,
                         method + " (basic: bias beyond BCa's range)")
     z0 = ndtri(prop)
-    d = jack.mean() - jack
-    den = 6.0 * (np.sum(d * d) ** 1.5)
-    a = float(np.sum(d ** 3) / den) if den > 0 else 0.0
+    a = _acceleration(np.asarray(jack, float))
     z = ndtri(np.array([alpha, 1.0 - alpha]))
     adj = ndtr(z0 + (z0 + z) / (1.0 - a * (z0 + z)))
     lo, hi = np.quantile(boot, adj)
     lo = min(float(lo), float(theta_hat))
     hi = max(float(hi), float(theta_hat))
     return Estimate(float(theta_hat), lo, hi, level, n, method)
+
+
+def _acceleration(jack):
+    """BCa acceleration from jackknife values; rescaled when the plain sums overflow
+    (data of magnitude ~1e100 and beyond), so that it is finite for every finite input."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        d = jack.mean() - jack
+        num, den = np.sum(d ** 3), 6.0 * (np.sum(d * d) ** 1.5)
+    if not (np.isfinite(num) and np.isfinite(den)):
+        s = np.max(np.abs(jack))  # finite: the jackknife values are means of finite data
+        d = jack / s
+        d = d.mean() - d
+        num, den = np.sum(d ** 3), 6.0 * (np.sum(d * d) ** 1.5)
+    return float(num / den) if den > 0 else 0.0
+
+
+def _scale(*arrays) -> float:
+    """A power of two that brings the largest magnitude in ``arrays`` near 1, or 1.0 when
+    the values are of ordinary size (so that ordinary data give bit-identical intervals).
+    Dividing by a power of two is exact; it keeps sums of huge values finite."""
+    m = max(float(np.max(np.abs(a))) for a in arrays)
+    if m == 0.0 or 1e-100 < m < 1e100:
+        return 1.0
+    return float(2.0 ** math.floor(math.log2(m)))
+
+
+def _is_binary(*arrays) -> bool:
+    return all(bool(np.all((a == 0.0) | (a == 1.0))) for a in arrays)
 
 
 def _boot_means(samples, paired, n_boot, seed):
@@ -244,45 +324,262 @@ def _jack_means(x):
     return (x.sum() - x) / (x.size - 1)
 
 
+def _order_stat(sorted_t, k):
+    """The ``k``-th smallest (1-based, clipped to the sample) of a sorted array."""
+    return float(sorted_t[min(max(k, 1), sorted_t.size) - 1])
+
+
+def _studentized(theta, se, t, level, n, method):
+    """Studentized (bootstrap-t) interval from replicates ``t = (theta* - theta) / se*``.
+
+    The hull of the equal-tailed interval ``(theta - t_hi se, theta - t_lo se)`` and the
+    symmetric one ``theta -/+ |t|_level se``: the equal-tailed one follows a real skew, the
+    symmetric one guards against a skew that is only noise in a small sample; the hull
+    covers whenever either does.  ``t`` may hold +-inf (a resample with no spread)."""
+    t = t[~np.isnan(t)]
+    if t.size < 100:
+        raise ValueError("too few usable bootstrap replicates for a studentized interval")
+    alpha = 0.5 * (1.0 - level)
+    b = t.size
+    ts = np.sort(t)
+    t_lo = _order_stat(ts, int(math.floor(alpha * (b + 1))))
+    t_hi = _order_stat(ts, int(math.ceil((1.0 - alpha) * (b + 1))))
+    q = _order_stat(np.sort(np.abs(t)), int(math.ceil(level * (b + 1))))
+    with np.errstate(invalid="ignore", over="ignore"):
+        lo = min(theta - t_hi * se, theta - q * se)
+        hi = max(theta - t_lo * se, theta + q * se)
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        raise ValueError(
+            f"the runs have too few distinct values for a studentized interval at n = {n} "
+            "(too many resamples have no spread); use more runs, or rate_ci for 0/1 outcomes")
+    return Estimate(float(theta), min(float(lo), float(theta)), max(float(hi), float(theta)),
+                    level, n, method)
+
+
+def _student_mean(v, level, n_boot, seed, method):
+    """Studentized bootstrap interval of the mean of ``v`` (resampling the runs)."""
+    n = v.size
+    rng = np.random.default_rng(seed)
+    m, se = v.mean(), v.std(ddof=1) / math.sqrt(n)
+    tol = _REL_TOL * float(np.max(np.abs(v)))
+    t = np.empty(n_boot)
+    done = 0
+    while done < n_boot:
+        b = min(_CHUNK, n_boot - done)
+        r = v[rng.integers(0, n, size=(b, n))]
+        sb = r.std(axis=1, ddof=1)
+        sb[sb <= tol] = 0.0  # spread at rounding level is no spread
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t[done:done + b] = (r.mean(axis=1) - m) / (sb / math.sqrt(n))
+        done += b
+    return _studentized(m, se, t, level, n, method)
+
+
+def _ratio_se(x, y, r, paired):
+    """Delta-method standard error of ``mean(x) / mean(y)`` along the last axis."""
+    nx, ny = x.shape[-1], y.shape[-1]
+    my = y.mean(axis=-1)
+    if paired:
+        res = x - np.asarray(r)[..., None] * y
+        return np.sqrt(np.sum(res * res, axis=-1) / (nx * (nx - 1))) / np.abs(my)
+    vx, vy = x.var(axis=-1, ddof=1), y.var(axis=-1, ddof=1)
+    return np.sqrt(vx / nx + np.asarray(r) ** 2 * vy / ny) / np.abs(my)
+
+
+def _student_ratio(x, y, paired, level, n_boot, seed, n, method):
+    """Studentized bootstrap interval of ``mean(x) / mean(y)``."""
+    rng = np.random.default_rng(seed)
+    r = x.mean() / y.mean()
+    se = float(_ratio_se(x, y, r, paired))
+    t = np.empty(n_boot)
+    done = 0
+    while done < n_boot:
+        b = min(_CHUNK, n_boot - done)
+        if paired:
+            idx = rng.integers(0, x.size, size=(b, x.size))
+            xb, yb = x[idx], y[idx]
+        else:
+            xb = x[rng.integers(0, x.size, size=(b, x.size))]
+            yb = y[rng.integers(0, y.size, size=(b, y.size))]
+        my = yb.mean(axis=1)
+        if np.any(my <= 0):
+            raise ValueError(_ZERO_DEN.format(k=int(np.sum(my <= 0)), b=b))
+        rb = xb.mean(axis=1) / my
+        seb = _ratio_se(xb, yb, rb, paired)
+        seb[seb <= _REL_TOL * abs(r)] = 0.0  # spread at rounding level is no spread
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t[done:done + b] = (rb - r) / seb
+        done += b
+    return _studentized(r, se, t, level, n, method)
+
+
+_REL_TOL = 1e-9  # resample spreads below this, relative to the values, are rounding noise
+
+_ZERO_DEN = ("ratio_ci: {k} of {b} resamples have mean(y) <= 0, where the ratio is "
+             "undefined (y is zero or negative in too many runs); compare the runs with "
+             "paired_diff_ci instead")
+
+
+def _exact_rate(k, n, level, value, method):
+    """Clopper-Pearson interval of ``k`` events in ``n`` runs (coverage >= level for every
+    event probability)."""
+    alpha = 0.5 * (1.0 - level)
+    lo = 0.0 if k == 0 else float(_beta_dist.ppf(alpha, k, n - k + 1))
+    hi = 1.0 if k == n else float(_beta_dist.ppf(1.0 - alpha, k + 1, n - k))
+    return Estimate(float(value), min(lo, float(value)), max(hi, float(value)), level, n,
+                    method)
+
+
+def _cells(x, y):
+    """Counts of paired 0/1 runs: both 1, only x, only y, neither."""
+    both = int(np.sum((x == 1) & (y == 1)))
+    only_x = int(np.sum((x == 1) & (y == 0)))
+    only_y = int(np.sum((x == 0) & (y == 1)))
+    return both, only_x, only_y, x.size - both - only_x - only_y
+
+
+def _newcombe_diff(x, y, level, paired):
+    """Newcombe's hybrid score interval of ``mean(x) - mean(y)`` for 0/1 runs (Newcombe,
+    Statistics in Medicine 17, 2635-2650, 1998, method 10): Wilson intervals of the two rates combined with the
+    correlation of paired runs (0 for independent samples)."""
+    z = float(ndtri(0.5 + level / 2))
+    nx, ny = x.size, y.size
+    kx, ky = int(x.sum()), int(y.sum())
+    p1, p2 = kx / nx, ky / ny
+    l1, u1 = wilson_interval(kx, nx, z)
+    l2, u2 = wilson_interval(ky, ny, z)
+    phi = 0.0
+    if paired:
+        a, b, c, d = _cells(x, y)
+        den = math.sqrt(float((a + b) * (c + d) * (a + c) * (b + d)))
+        phi = (a * d - b * c) / den if den > 0 else 0.0
+    dl = math.sqrt(max((p1 - l1) ** 2 - 2 * phi * (p1 - l1) * (u2 - p2) + (u2 - p2) ** 2, 0.0))
+    du = math.sqrt(max((u1 - p1) ** 2 - 2 * phi * (u1 - p1) * (p2 - l2) + (p2 - l2) ** 2, 0.0))
+    value = float(x.mean() - y.mean())
+    n = nx if paired else nx + ny
+    return Estimate(value, min(p1 - p2 - dl, value), max(p1 - p2 + du, value), level, n,
+                    "Newcombe score (paired 0/1 runs)" if paired else "Newcombe score (0/1 runs)")
+
+
+def _adjusted_log_ratio(x, y, level):
+    """Interval of ``mean(x) / mean(y)`` for paired 0/1 runs: a Wald interval of the log
+    ratio with one pseudo-event added to each rate and two to the discordant count,
+    ``(a + b + 1) / (a + c + 1) * exp(+-z sqrt((b + c + 2) / ((a + b + 1)(a + c + 1))))``
+    (``a`` runs with both events, ``b`` only x, ``c`` only y)."""
+    z = float(ndtri(0.5 + level / 2))
+    a, b, c, _ = _cells(x, y)
+    r = (a + b + 1) / (a + c + 1)
+    s = math.sqrt((b + c + 2) / ((a + b + 1) * (a + c + 1)))
+    value = float(x.mean() / y.mean())
+    return Estimate(value, min(r * math.exp(-z * s), value), max(r * math.exp(z * s), value),
+                    level, x.size, "adjusted log-ratio score (paired 0/1 runs)")
+
+
+def _need_runs(n, name):
+    if n < MIN_RUNS:
+        raise ValueError(
+            f"{name} has {n} runs; intervals of means of non-0/1 values need at least "
+            f"{MIN_RUNS} runs (below that none reaches 93 % coverage on skewed runs); "
+            "use more runs, or rate_ci / 0/1 arrays for event outcomes")
+
+
+def _no_spread(name, v):
+    raise ValueError(
+        f"{name} is the same ({v:g}) in every run: with no spread there is no interval; "
+        "a zero-width interval would claim certainty that the runs do not give")
+
+
 # --------------------------------------------------------------------------- intervals
 
 def mean_ci(x, *, level: float = LEVEL, n_boot: int = N_BOOT, seed: int = 0) -> Estimate:
-    """BCa bootstrap interval of the mean of ``x`` (one value per Monte Carlo run).
+    """Interval of the mean of ``x`` (one value per Monte Carlo run).
+
+    * 0/1 values (events): the exact Clopper-Pearson interval of the rate
+      (Clopper and Pearson, Biometrika 26, 404-413, 1934), unless there are ``n >= BCA_RUNS`` runs with at least
+      ``MIN_EVENTS`` events and non-events (then BCa);
+    * other values: ``n >= MIN_RUNS`` runs are required (ValueError below); the studentized
+      bootstrap interval for ``n < BCA_RUNS``, the BCa bootstrap interval from ``BCA_RUNS``
+      runs on; values that are all equal have no interval (ValueError).
 
     Parameters
     ----------
     x : array_like, shape (n,)
-        Per-run values, finite, ``n >= 2``.
+        Per-run values, finite.
     level : float
         Confidence level (default 0.95).
     n_boot : int
-        Bootstrap resamples (default 10 000).
+        Bootstrap resamples (default 10 000, at most ``N_BOOT_MAX``).
     seed : int
         Seed of the resampling stream, fixed so that the interval is reproducible.
     """
     x = _as_runs(x, "x")
     level, n_boot = _check_level(level), _check_n_boot(n_boot)
+    n = x.size
+    if _is_binary(x):
+        k = int(x.sum())
+        if n < BCA_RUNS or min(k, n - k) < MIN_EVENTS:
+            return _exact_rate(k, n, level, x.mean(), "Clopper-Pearson exact (0/1 runs)")
+    else:
+        if np.all(x == x[0]):
+            _no_spread("x", x[0])
+        _need_runs(n, "x")
+    s = _scale(x)
+    if s != 1.0:
+        e = mean_ci(x / s, level=level, n_boot=n_boot, seed=seed)
+        return Estimate(e.value * s, e.lo * s, e.hi * s, level, e.n, e.method)
+    if n < BCA_RUNS:
+        return _student_mean(x, level, n_boot, seed, "studentized bootstrap")
     (boot,) = _boot_means([x], True, n_boot, seed)
-    return _bca(x.mean(), boot, _jack_means(x), level, x.size, "BCa bootstrap")
+    return _bca(x.mean(), boot, _jack_means(x), level, n, "BCa bootstrap")
 
 
 def paired_diff_ci(x, y, *, level: float = LEVEL, n_boot: int = N_BOOT,
                    seed: int = 0) -> Estimate:
     """Interval of ``mean(x) - mean(y)`` for paired runs (run ``i`` of ``x`` and of ``y``
-    share their seed): the runs are resampled together."""
+    share their seed): the runs are resampled together.
+
+    0/1 runs: Newcombe's paired score interval unless ``n >= BCA_RUNS`` and at least
+    ``MIN_EVENTS`` runs differ (then BCa). Other values: ``n >= MIN_RUNS`` runs, the
+    studentized bootstrap interval of the mean of ``x - y`` at every ``n`` (BCa fell short
+    of 93 % on differences of skewed runs even at 500 runs); a difference that is the same
+    in every run is a ValueError, not a zero-width interval."""
     x, y = _as_runs(x, "x"), _as_runs(y, "y")
     if x.size != y.size:
         raise ValueError(f"paired samples need equal lengths, got x {x.size} and y {y.size}")
-    d = x - y
     level, n_boot = _check_level(level), _check_n_boot(n_boot)
+    n = x.size
+    if _is_binary(x, y):
+        _, b, c, _ = _cells(x, y)
+        if n < BCA_RUNS or b + c < MIN_EVENTS:
+            return _newcombe_diff(x, y, level, paired=True)
+    s = _scale(x, y)
+    if s != 1.0:
+        e = paired_diff_ci(x / s, y / s, level=level, n_boot=n_boot, seed=seed)
+        return Estimate(e.value * s, e.lo * s, e.hi * s, level, e.n, e.method)
+    d = x - y
+    if not _is_binary(x, y):
+        if np.all(d == d[0]):
+            _no_spread("x - y", d[0])
+        _need_runs(n, "x")
+        return _student_mean(d, level, n_boot, seed, "paired studentized bootstrap")
     (boot,) = _boot_means([d], True, n_boot, seed)
     return _bca(d.mean(), boot, _jack_means(d), level, d.size, "paired BCa bootstrap")
 
 
 def diff_ci(x, y, *, level: float = LEVEL, n_boot: int = N_BOOT, seed: int = 0) -> Estimate:
-    """Interval of ``mean(x) - mean(y)`` for independent samples (resampled separately)."""
+    """Interval of ``mean(x) - mean(y)`` for independent samples (resampled separately),
+    BCa bootstrap. Two 0/1 samples that are each all-equal get Newcombe's score interval;
+    two other samples that are each all-equal are a ValueError (no zero-width interval)."""
     x, y = _as_runs(x, "x"), _as_runs(y, "y")
     level, n_boot = _check_level(level), _check_n_boot(n_boot)
+    if np.all(x == x[0]) and np.all(y == y[0]):
+        if _is_binary(x, y):
+            return _newcombe_diff(x, y, level, paired=False)
+        _no_spread("each of x and y", x[0] - y[0])
+    s = _scale(x, y)
+    if s != 1.0:
+        e = diff_ci(x / s, y / s, level=level, n_boot=n_boot, seed=seed)
+        return Estimate(e.value * s, e.lo * s, e.hi * s, level, e.n, e.method)
     bx, by = _boot_means([x, y], False, n_boot, seed)
     # jackknife over the pooled observations: leave one out of x, then one out of y
     jack = np.concatenate([_jack_means(x) - y.mean(), x.mean() - _jack_means(y)])
@@ -294,7 +591,11 @@ def ratio_ci(x, y, *, paired: bool = True, level: float = LEVEL, n_boot: int = N
     """Interval of ``mean(x) / mean(y)`` (e.g. one filter's RMSE as a fraction of another's).
 
     ``paired=True`` resamples run ``i`` of both together (same seeds); ``mean(y)`` must be
-    positive.
+    positive, and so must every resample's (a ValueError says how many are not).
+    Paired 0/1 runs: an adjusted log-ratio score interval unless ``n >= BCA_RUNS`` with at
+    least ``MIN_EVENTS`` events, non-events and differing runs (then BCa). Other values:
+    ``MIN_RUNS`` runs per sample at least, the studentized bootstrap interval at every
+    ``n`` (BCa fell just short of 93 % on ratios of skewed runs at 500 runs).
     """
     x, y = _as_runs(x, "x"), _as_runs(y, "y")
     if paired and x.size != y.size:
@@ -302,16 +603,39 @@ def ratio_ci(x, y, *, paired: bool = True, level: float = LEVEL, n_boot: int = N
     if not y.mean() > 0:
         raise ValueError("ratio_ci needs mean(y) > 0")
     level, n_boot = _check_level(level), _check_n_boot(n_boot)
+    n = x.size if paired else x.size + y.size
+    method = "paired BCa bootstrap" if paired else "BCa bootstrap"
+    nmin = min(x.size, y.size)
+    if paired and _is_binary(x, y):
+        a, b, c, _ = _cells(x, y)
+        kx, ky = a + b, a + c
+        if (nmin < BCA_RUNS or b + c < MIN_EVENTS
+                or min(kx, ky, n - kx, n - ky) < MIN_EVENTS):
+            return _adjusted_log_ratio(x, y, level)
+    else:
+        if paired and np.all(x * y.mean() == y * x.mean()):
+            _no_spread("x / y", x.mean() / y.mean())
+        if not paired and np.all(x == x[0]) and np.all(y == y[0]):
+            _no_spread("each of x and y", x[0] / y[0])
+        _need_runs(nmin, "x" if x.size <= y.size else "y")
+    sx, sy = _scale(x), _scale(y)
+    if sx != 1.0 or sy != 1.0:
+        e = ratio_ci(x / sx, y / sy, paired=paired, level=level, n_boot=n_boot, seed=seed)
+        f = sx / sy
+        return Estimate(e.value * f, e.lo * f, e.hi * f, level, e.n, e.method)
+    if not (paired and _is_binary(x, y)):
+        return _student_ratio(x, y, paired, level, n_boot, seed, n,
+                              method.replace("BCa", "studentized"))
     bx, by = _boot_means([x, y], paired, n_boot, seed)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        boot = bx / by
+    bad = int(np.sum(by <= 0))
+    if bad:
+        raise ValueError(_ZERO_DEN.format(k=bad, b=n_boot))
+    boot = bx / by
     if paired:
         jack = _jack_means(x) / _jack_means(y)
     else:
         jack = np.concatenate([_jack_means(x) / y.mean(), x.mean() / _jack_means(y)])
-    n = x.size if paired else x.size + y.size
-    return _bca(x.mean() / y.mean(), boot, jack, level, n,
-                "paired BCa bootstrap" if paired else "BCa bootstrap")
+    return _bca(x.mean() / y.mean(), boot, jack, level, n, method)
 
 
 def bootstrap_ci(statistic: Callable, *samples, paired: bool = True, level: float = LEVEL,
@@ -466,6 +790,8 @@ def compare(x, y, names=("A", "B"), *, paired: bool = True, kind: str = "differe
     else:
         eff = diff_ci(x, y, level=level, n_boot=n_boot, seed=seed)
         ref = 0.0
+    if not eff.lo < eff.hi:  # no helper returns one; guard the promise anyway
+        raise ValueError(f"compare: the interval {eff} has zero width; no verdict")
     if eff.hi < ref:
         verdict, low = f"{a} < {b}", a
     elif eff.lo > ref:
