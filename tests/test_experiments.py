@@ -203,3 +203,28 @@ def test_cli_list_run_verify(tmp_path):
     r = subprocess.run(cmd + ["run", NAME, "--set", "nope=1", "--runs", "2", "--out",
                               str(tmp_path / "x.parquet")], capture_output=True, text=True)
     assert r.returncode == 2 and "unknown config field" in r.stderr, r.stderr
+
+
+def test_book_store_is_current_and_its_metadata_complete():
+    """The committed store of the ported notebook: current, 100 runs per case."""
+    from trackcore.experiments import read_metadata, status
+
+    for c in (1, 2, 3):
+        name = f"hpda-mc-case{c}"
+        assert status(name) == "current", f"{name}: {status(name)}"
+        m = read_metadata(get(name).default_path())
+        assert m["runs"] == 100 and m["seed"] == 20070828 + c, m
+        assert {"code_version", "wall_seconds", "cpu_seconds", "executor", "config"} <= set(m)
+
+
+def test_exec_stats_page_reads_verified_runs_from_outputs():
+    import importlib.util
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    spec = importlib.util.spec_from_file_location("exec_stats",
+                                                  root / "book" / "_ext" / "exec_stats.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    assert mod.runs_verified(root / "book" / "000-hpda" / "06-monte-carlo.ipynb") == (60, 300)
+    assert mod.runs_verified(root / "book" / "000-hpda" / "01-model.ipynb") is None

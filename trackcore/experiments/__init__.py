@@ -42,6 +42,7 @@ relative tolerance of ``FLOAT_RTOL`` = 1e-9 (the same code on the same platform 
 equal bits; the tolerance leaves room for another CPU's libm, never for a changed
 algorithm).  ``verify --fraction 1.0`` re-runs everything.
 """
+from . import registry  # noqa: F401  (registers the book's experiments)
 from ._core import (
     FLOAT_RTOL,
     Experiment,
@@ -68,7 +69,6 @@ from ._core import (
     verify_sample,
     write_store,
 )
-from . import registry  # noqa: F401  (registers the book's experiments)
 from .registry import HoulesConfig, HpdaMonteCarloConfig
 
 __all__ = [

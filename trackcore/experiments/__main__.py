@@ -15,7 +15,6 @@ from . import (
     names,
     read_metadata,
     run_experiment,
-    sample_size,
     status,
     verify_sample,
 )

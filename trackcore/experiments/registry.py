@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..scenarios.houles import houles_imm_trial
 from ..scenarios.hpda_scenario import (
     HPDA_ALGORITHMS,
     HPDA_METRICS,
@@ -20,7 +21,6 @@ from ..scenarios.hpda_scenario import (
     hpda_parameters,
     run_hpda_trial,
 )
-from ..scenarios.houles import houles_imm_trial
 from ._core import Experiment, register
 
 __all__ = ["HpdaMonteCarloConfig", "HoulesConfig"]
