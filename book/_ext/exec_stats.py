@@ -82,7 +82,7 @@ class ExecStats(SphinxDirective):
         rows, total, n_ok = [], 0.0, 0
         for nb in _notebooks():
             rec = stats.get(nb)
-            ver = runs_verified(_ROOT / nb)
+            ver = (rec or {}).get("runs_verified") or runs_verified(_ROOT / nb)
             ver_txt = f"{ver[0]} of {ver[1]}" if ver else "—"
             if rec is None:
                 rows.append((nb, "—", "no record", "—", ver_txt, "—"))
