@@ -1,0 +1,642 @@
+"""Experiments, their Parquet stores, loading with staleness checks, sampled verification.
+
+See the package docstring (:mod:`trackcore.experiments`) for the design.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import os
+import random
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from .. import __version__
+from ..core.rng import spawn_seed_sequences
+from ..core.validation import as_count, as_int
+
+#: Relative tolerance of :func:`verify_sample` for floating-point columns.
+FLOAT_RTOL = 1e-9
+#: Metadata key of a store file (Parquet key-value metadata, JSON value).
+META_KEY = b"trackcore.experiment"
+#: The package's repository root (the default store lives in ``<root>/results``).
+_REPO_ROOT = Path(__file__).resolve().parents[2]
+
+
+class StaleResultsError(LookupError):
+    """A store is missing, or was made for another configuration, seed or version.
+
+    ``command`` is the exact shell command that regenerates it.
+    """
+
+    def __init__(self, message, command):
+        super().__init__(f"{message}\nRegenerate it with:\n    {command}")
+        self.command = command
+
+
+class MissingResultsError(StaleResultsError):
+    """No store file at the expected path."""
+
+
+class VerificationError(AssertionError):
+    """A re-simulated run does not reproduce its stored row."""
+
+
+def results_dir() -> Path:
+    """The store directory: ``$TRACKCORE_RESULTS`` if set, else ``<repository>/results``."""
+    env = os.environ.get("TRACKCORE_RESULTS")
+    return Path(env) if env else _REPO_ROOT / "results"
+
+
+def _canonical(value):
+    """A JSON-ready, order-stable form of a config value."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: _canonical(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    if isinstance(value, (tuple, list)):
+        return [_canonical(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): _canonical(v) for k, v in sorted(value.items())}
+    if isinstance(value, (np.integer,)):
+        return int(value)
+    if isinstance(value, (np.floating,)):
+        return float(value)
+    return value
+
+
+def config_hash(config) -> str:
+    """SHA-256 (hex, 16 digits) of the canonical JSON of a config record."""
+    text = json.dumps(_canonical(config), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def code_version() -> str:
+    """``trackcore <version>`` plus the git commit (``+dirty`` if trackcore/ has changes).
+
+    Recorded in every store for the record; it is *not* part of the staleness check
+    (it changes with every commit): the sampled re-simulation catches code drift.
+    """
+    out = f"trackcore {__version__}"
+    try:
+        head = subprocess.run(["git", "-C", str(_REPO_ROOT), "rev-parse", "--short", "HEAD"],
+                              capture_output=True, text=True, timeout=10)
+        if head.returncode == 0:
+            out += f" git {head.stdout.strip()}"
+            dirty = subprocess.run(["git", "-C", str(_REPO_ROOT), "status", "--porcelain",
+                                    "trackcore"], capture_output=True, text=True, timeout=10)
+            if dirty.returncode == 0 and dirty.stdout.strip():
+                out += "+dirty"
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return out
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """A named Monte Carlo experiment of the book.
+
+    ``trial(rng, *args, **kwargs)`` is an existing trackcore trial; ``call(config)``
+    maps a config record to its ``(args, kwargs)``; ``extract(result, config)`` maps
+    one trial result to a flat row ``{column: scalar or fixed-shape ndarray}``.
+    ``config`` is the book's config record (a frozen dataclass that validates itself),
+    ``seed`` and ``runs`` the book's master seed and run count.  Run ``i`` uses
+    ``numpy.random.default_rng(SeedSequence(seed).spawn(n)[i])`` exactly as
+    :func:`trackcore.montecarlo.run` does, which does not depend on ``n``: the first
+    ``m`` rows of a store of ``n >= m`` runs are the rows of an ``m``-run experiment.
+    ``version`` is bumped by hand whenever the trial's or the extractor's meaning
+    changes; a store with another version is refused.
+    """
+
+    name: str
+    description: str
+    trial: Callable
+    call: Callable
+    extract: Callable
+    config: Any
+    seed: int
+    runs: int
+    version: str
+    notebook: str = ""
+
+    def configure(self, overrides=None):
+        """The book's config with ``overrides`` ({field: value}) applied and validated."""
+        if not overrides:
+            return self.config
+        if not isinstance(overrides, dict):
+            raise TypeError(f"overrides must be a dict, got {type(overrides).__name__}")
+        return self.config.with_overrides(overrides)
+
+    def row(self, rng, config):
+        """One run: the trial's result reduced to its row."""
+        args, kwargs = self.call(config)
+        return self.extract(self.trial(rng, *args, **kwargs), config)
+
+    def default_path(self, config=None, seed=None) -> Path:
+        """``results/NAME.parquet`` for the book's config and seed; otherwise
+        ``results/local/NAME-<config hash>-seed<seed>.parquet`` (not in git)."""
+        config = self.config if config is None else config
+        seed = self.seed if seed is None else seed
+        if config == self.config and seed == self.seed:
+            return results_dir() / f"{self.name}.parquet"
+        return results_dir() / "local" / f"{self.name}-{config_hash(config)}-seed{seed}.parquet"
+
+    def command(self, runs=None, seed=None, overrides=None, path=None) -> str:
+        """The CLI command that computes this experiment's store."""
+        cmd = f"python -m trackcore.experiments run {self.name}"
+        if runs is not None and runs != self.runs:
+            cmd += f" --runs {runs}"
+        if seed is not None and seed != self.seed:
+            cmd += f" --seed {seed}"
+        for k, v in (overrides or {}).items():
+            cmd += f" --set {k}={_format_value(v)}"
+        if path is not None:
+            config = self.configure(overrides)
+            if Path(path).resolve() != self.default_path(config, seed).resolve():
+                cmd += f" --out {path}"
+        return cmd
+
+
+def _format_value(v):
+    if isinstance(v, (tuple, list)):
+        return ",".join(str(x) for x in v)
+    return str(v)
+
+
+# ---------------------------------------------------------------------------- computing rows
+def _row_task(rng, experiment, config):
+    """Executed where the run goes: the row and the CPU time it took."""
+    t0 = time.process_time()
+    row = experiment.row(rng, config)
+    return row, time.process_time() - t0
+
+
+def _rows_for_indices(experiment, config, seed, n, indices):
+    """Worker side of :func:`compute_rows` for arbitrary run indices."""
+    seeds = spawn_seed_sequences(seed, n)
+    out = []
+    for i in indices:
+        out.append(_row_task(np.random.default_rng(seeds[i]), experiment, config))
+    return out
+
+
+def _progress_bar(total, desc, enabled):
+    if not enabled:
+        return None
+    from tqdm.auto import tqdm
+    return tqdm(total=total, desc=desc, unit="run", file=sys.stderr, smoothing=0.1)
+
+
+def compute_rows(experiment, config, seed, runs, *, indices=None, executor=None,
+                 progress=False):
+    """Rows of runs ``0 .. runs-1`` (or of ``indices``) and the total CPU seconds.
+
+    All runs go through :func:`trackcore.montecarlo.run` (same seeding); ``indices``
+    re-computes chosen runs of a ``runs``-run experiment the same way.
+    """
+    from .. import montecarlo
+
+    runs = as_count(runs, "runs")
+    bar = _progress_bar(runs if indices is None else len(indices), experiment.name, progress)
+
+    def report(done, total):
+        if bar is not None:
+            bar.update(done - bar.n)
+
+    try:
+        if indices is None:
+            pairs = montecarlo.run(_row_task, runs, seed, executor=executor, progress=report,
+                                   args=(experiment, config))
+        else:
+            idx = [as_int(i, "index", minimum=0) for i in indices]
+            if any(i >= runs for i in idx):
+                raise ValueError(f"indices must lie in [0, {runs})")
+            if executor is None:
+                pairs = []
+                for k, i in enumerate(idx):
+                    pairs += _rows_for_indices(experiment, config, seed, runs, [i])
+                    report(k + 1, len(idx))
+            else:
+                futs = [executor.submit(_rows_for_indices, experiment, config, seed, runs, [i])
+                        for i in idx]
+                pairs = []
+                for k, f in enumerate(futs):
+                    pairs += f.result()
+                    report(k + 1, len(idx))
+    finally:
+        if bar is not None:
+            bar.close()
+    rows = [r for r, _ in pairs]
+    return rows, float(sum(c for _, c in pairs))
+
+
+# ------------------------------------------------------------------------------- the store
+def _columns(rows):
+    """Stack rows into ``{column: array (runs, *shape)}``, checking consistent shapes."""
+    if not rows:
+        raise ValueError("no rows to store")
+    names = list(rows[0])
+    cols = {}
+    for name in names:
+        vals = [np.asarray(r[name]) for r in rows]
+        first = vals[0]
+        for i, v in enumerate(vals):
+            if v.shape != first.shape or v.dtype != first.dtype:
+                raise ValueError(f"column {name!r}: run {i} has {v.dtype} {v.shape}, "
+                                 f"run 0 has {first.dtype} {first.shape}")
+        cols[name] = np.stack(vals)
+    return cols
+
+
+def write_store(path, experiment, config, seed, rows, *, wall_seconds, cpu_seconds,
+                executor_desc="serial"):
+    """Write ``rows`` to a Parquet file with the experiment's metadata; returns the path."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    cols = _columns(rows)
+    n = len(rows)
+    arrays, fields, shapes = [], [], {}
+    arrays.append(pa.array(np.arange(n, dtype=np.int64)))
+    fields.append(pa.field("run", pa.int64()))
+    for name, a in cols.items():
+        shape = a.shape[1:]
+        shapes[name] = [list(shape), a.dtype.str]
+        flat = np.ascontiguousarray(a).reshape(n, -1) if shape else a
+        if shape:
+            size = int(np.prod(shape))
+            values = pa.array(flat.reshape(-1))
+            arr = pa.FixedSizeListArray.from_arrays(values, size)
+        else:
+            arr = pa.array(a)
+        arrays.append(arr)
+        fields.append(pa.field(name, arr.type))
+    meta = {
+        "experiment": experiment.name,
+        "version": experiment.version,
+        "config": _canonical(config),
+        "config_hash": config_hash(config),
+        "seed": int(seed),
+        "runs": n,
+        "code_version": code_version(),
+        "created_utc": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M:%S"),
+        "wall_seconds": round(float(wall_seconds), 2),
+        "cpu_seconds": round(float(cpu_seconds), 2),
+        "executor": executor_desc,
+        "python": sys.version.split()[0],
+        "columns": shapes,
+    }
+    schema = pa.schema(fields, metadata={META_KEY: json.dumps(meta).encode()})
+    table = pa.Table.from_arrays(arrays, schema=schema)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    pq.write_table(table, tmp, compression="zstd", compression_level=19)
+    os.replace(tmp, path)
+    return path
+
+
+def read_metadata(path) -> dict:
+    """The metadata of a store file (no data read)."""
+    import pyarrow.parquet as pq
+
+    md = pq.read_schema(path).metadata or {}
+    if META_KEY not in md:
+        raise ValueError(f"{path} is not a trackcore experiment store (no {META_KEY!r} metadata)")
+    return json.loads(md[META_KEY])
+
+
+class Results:
+    """Stored rows of one experiment: ``res[column]`` is an array with runs first."""
+
+    def __init__(self, experiment, meta, columns, path, config, from_store=True):
+        self.experiment = experiment
+        self.config = config
+        self.meta = meta
+        self.columns = columns
+        self.path = path
+        self.from_store = from_store
+
+    @property
+    def runs(self) -> int:
+        return len(self.columns["run"])
+
+    @property
+    def is_book(self) -> bool:
+        """Whether these are the book's runs: its config, seed and run count."""
+        e = self.experiment
+        return (self.config == e.config and self.meta.get("seed") == e.seed
+                and self.runs == e.runs)
+
+    def __getitem__(self, name):
+        try:
+            return self.columns[name]
+        except KeyError:
+            raise KeyError(f"{self.experiment.name} has no column {name!r}; columns: "
+                           f"{sorted(self.columns)}") from None
+
+    def __contains__(self, name):
+        return name in self.columns
+
+    def row(self, i):
+        """Run ``i``'s row as ``{column: value}`` (without the ``run`` column)."""
+        return {k: v[i] for k, v in self.columns.items() if k != "run"}
+
+    def __repr__(self):
+        return (f"Results({self.experiment.name!r}, runs={self.runs}, "
+                f"columns={len(self.columns) - 1}, path={str(self.path)!r})")
+
+
+def _read_columns(path, runs=None):
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(path)
+    meta = json.loads(table.schema.metadata[META_KEY])
+    n = table.num_rows if runs is None else runs
+    cols = {"run": table.column("run").to_numpy()[:n]}
+    for name, (shape, dtype) in meta["columns"].items():
+        col = table.column(name).combine_chunks()
+        if shape:
+            values = col.flatten().to_numpy(zero_copy_only=False)
+            a = values.reshape(table.num_rows, *shape)
+        else:
+            a = col.to_numpy(zero_copy_only=False)
+        cols[name] = np.ascontiguousarray(a[:n]).astype(np.dtype(dtype), copy=False)
+    return meta, cols
+
+
+def check_store(experiment, path, config, seed, runs):
+    """Raise :class:`StaleResultsError` unless ``path`` holds at least ``runs`` runs of
+    ``experiment`` at ``config``, ``seed`` and the current version; returns its metadata."""
+    overrides = _overrides_of(experiment, config)
+    cmd = experiment.command(max(runs, experiment.runs) if config == experiment.config
+                             and seed == experiment.seed else runs, seed, overrides, path)
+    path = Path(path)
+    if not path.exists():
+        raise MissingResultsError(f"No stored results for experiment {experiment.name!r} at "
+                                  f"{path}.", cmd)
+    meta = read_metadata(path)
+    problems = []
+    if meta.get("experiment") != experiment.name:
+        problems.append(f"it holds experiment {meta.get('experiment')!r}")
+    if meta.get("version") != experiment.version:
+        problems.append(f"it was made by version {meta.get('version')!r} of the experiment, "
+                        f"the code is at version {experiment.version!r}")
+    if meta.get("config_hash") != config_hash(config):
+        problems.append(f"its config {meta.get('config')} is not the requested "
+                        f"{_canonical(config)}")
+    if meta.get("seed") != seed:
+        problems.append(f"its seed is {meta.get('seed')}, not {seed}")
+    if meta.get("runs", 0) < runs:
+        problems.append(f"it holds {meta.get('runs')} runs, {runs} are requested")
+    if problems:
+        raise StaleResultsError(f"The stored results {path} of {experiment.name!r} are stale: "
+                                + "; ".join(problems) + ".", cmd)
+    return meta
+
+
+def _overrides_of(experiment, config):
+    """The {field: value} overrides that turn the book's config into ``config``."""
+    base, out = experiment.config, {}
+    for f in dataclasses.fields(config):
+        v = getattr(config, f.name)
+        if v != getattr(base, f.name):
+            out[f.name] = v
+    return out
+
+
+def load(name, *, runs=None, seed=None, overrides=None, path=None) -> Results:
+    """Load an experiment's stored rows (the first ``runs`` of them).
+
+    Defaults: the book's run count, seed and config, and the store at
+    :meth:`Experiment.default_path`.  Raises :class:`StaleResultsError` (with the command
+    that regenerates the store) if the file is missing or was made for another config,
+    seed or experiment version, or holds fewer runs.
+    """
+    experiment = get(name)
+    config = experiment.configure(overrides)
+    seed = experiment.seed if seed is None else as_int(seed, "seed", minimum=0)
+    runs = experiment.runs if runs is None else as_int(runs, "runs", minimum=1)
+    path = Path(path) if path is not None else experiment.default_path(config, seed)
+    check_store(experiment, path, config, seed, runs)
+    meta, cols = _read_columns(path, runs)
+    return Results(experiment, meta, cols, path, config)
+
+
+def run_experiment(name, *, runs=None, seed=None, overrides=None, executor=None,
+                   executor_desc=None, out=None, progress=True, write=True) -> Results:
+    """Compute an experiment's rows (on ``executor``) and, with ``write``, store them."""
+    experiment = get(name)
+    config = experiment.configure(overrides)
+    seed = experiment.seed if seed is None else as_int(seed, "seed", minimum=0)
+    runs = experiment.runs if runs is None else as_int(runs, "runs", minimum=1)
+    t0 = time.perf_counter()
+    rows, cpu = compute_rows(experiment, config, seed, runs, executor=executor,
+                             progress=progress)
+    wall = time.perf_counter() - t0
+    desc = executor_desc or ("serial" if executor is None else type(executor).__name__)
+    path = None
+    if write:
+        path = Path(out) if out is not None else experiment.default_path(config, seed)
+        write_store(path, experiment, config, seed, rows, wall_seconds=wall, cpu_seconds=cpu,
+                    executor_desc=desc)
+        meta, cols = _read_columns(path)
+        return Results(experiment, meta, cols, path, config)
+    cols = {"run": np.arange(runs, dtype=np.int64), **_columns(rows)}
+    meta = {"experiment": name, "version": experiment.version, "config": _canonical(config),
+            "config_hash": config_hash(config), "seed": seed, "runs": runs,
+            "wall_seconds": wall, "cpu_seconds": cpu, "executor": desc}
+    return Results(experiment, meta, cols, None, config, from_store=False)
+
+
+def obtain(name, *, runs=None, seed=None, overrides=None, executor=None):
+    """What a notebook's parameters cell asks for, from the store when it can be.
+
+    The book's config and seed: the stored rows (strict: a missing or stale store raises
+    :class:`StaleResultsError` with its regenerate command).  Any other config or seed:
+    a store the reader made with the CLI (``results/local/``) if it holds enough runs,
+    else a live computation; either way a note says that the book's stored results were
+    not used.  A smaller run count of the book's config uses the first ``runs`` stored
+    rows, with a note.
+    """
+    experiment = get(name)
+    config = experiment.configure(overrides)
+    seed = experiment.seed if seed is None else as_int(seed, "seed", minimum=0)
+    runs = experiment.runs if runs is None else as_int(runs, "runs", minimum=1)
+    if config == experiment.config and seed == experiment.seed:
+        path = experiment.default_path()
+        check_store(experiment, path, config, seed, 1)  # missing or stale: raise
+        stored = read_metadata(path)["runs"]
+        if runs > stored:
+            res = load(name, runs=stored, seed=seed)
+            print(f"Note: {name} with {runs} runs, not the book's {experiment.runs}: the "
+                  f"book's stored results were not used as they stand; runs {stored} to "
+                  f"{runs - 1} are computed now and added to the {stored} stored runs (to "
+                  f"store them: {experiment.command(runs)}).")
+            more, _ = compute_rows(experiment, config, seed, runs,
+                                   indices=range(stored, runs), executor=executor)
+            cols = {"run": np.arange(runs, dtype=np.int64)}
+            for k, v in _columns(more).items():
+                cols[k] = np.concatenate([res.columns[k], v])
+            meta = dict(res.meta, runs=runs)
+            return Results(experiment, meta, cols, path, config)
+        res = load(name, runs=runs, seed=seed)
+        if runs != experiment.runs:
+            print(f"Note: {name} with {runs} runs, not the book's {experiment.runs}: the "
+                  f"book's stored results were not used as they stand "
+                  f"(the first {runs} stored runs are).")
+        return res
+    path = experiment.default_path(config, seed)
+    try:
+        res = load(name, runs=runs, seed=seed, overrides=overrides, path=path)
+        print(f"Note: {name} is not at the book's configuration: the book's stored results "
+              f"were not used; rows read from {path}.")
+        return res
+    except StaleResultsError:
+        pass
+    print(f"Note: {name} is not at the book's configuration: the book's stored results were "
+          f"not used; computing {runs} runs now (to store them: "
+          f"{experiment.command(runs, seed, _overrides_of(experiment, config))}).")
+    return run_experiment(name, runs=runs, seed=seed, overrides=overrides, executor=executor,
+                          write=False, progress=False)
+
+
+# ---------------------------------------------------------------------------- verification
+@dataclass(frozen=True)
+class Verification:
+    """Outcome of :func:`verify_sample`; ``str()`` does not depend on the sample drawn."""
+
+    experiment: str
+    checked: int
+    runs: int
+    indices: tuple
+    rtol: float
+
+    def __str__(self):
+        return (f"{self.experiment}: re-simulated {self.checked} of {self.runs} stored runs "
+                f"(a fresh random sample): all match")
+
+
+def sample_size(runs, fraction=0.01, minimum=20) -> int:
+    """How many runs :func:`verify_sample` checks: ``max(minimum, ceil(fraction * runs))``,
+    at most ``runs``."""
+    runs = as_count(runs, "runs")
+    minimum = as_int(minimum, "minimum", minimum=0)
+    if not (0.0 < float(fraction) <= 1.0):
+        raise ValueError(f"fraction must be in (0, 1], got {fraction!r}")
+    return min(runs, max(minimum, math.ceil(float(fraction) * runs - 1e-9)))
+
+
+def compare_rows(stored, fresh, run, rtol=FLOAT_RTOL):
+    """Raise :class:`VerificationError` unless ``fresh`` reproduces ``stored``.
+
+    Integer and boolean columns must be equal bit for bit; floating-point columns
+    within relative tolerance ``rtol`` element by element (NaN where and only where
+    the stored value is NaN, infinities equal).
+    """
+    if set(stored) != set(fresh):
+        raise VerificationError(f"run {run}: columns differ: stored {sorted(stored)}, "
+                                f"recomputed {sorted(fresh)}")
+    for name in stored:
+        a, b = np.asarray(stored[name]), np.asarray(fresh[name])
+        if a.shape != b.shape or a.dtype != b.dtype:
+            raise VerificationError(f"run {run}, column {name!r}: stored {a.dtype} {a.shape}, "
+                                    f"recomputed {b.dtype} {b.shape}")
+        if np.issubdtype(a.dtype, np.floating):
+            same_nan = np.isnan(a) == np.isnan(b)
+            with np.errstate(invalid="ignore"):
+                close = (a == b) | (np.abs(a - b) <= rtol * np.abs(a))
+            ok = same_nan & (close | np.isnan(a))
+        else:
+            ok = a == b
+        if not np.all(ok):
+            k = np.unravel_index(int(np.argmin(ok)), ok.shape) if ok.ndim else ()
+            where = f"[{', '.join(map(str, k))}]" if k else ""
+            raise VerificationError(
+                f"run {run}, column {name!r}{where}: stored {a[k]!r}, recomputed {b[k]!r}"
+                + (f" (relative tolerance {rtol:g})" if np.issubdtype(a.dtype, np.floating)
+                   else " (must be equal)"))
+
+
+def verify_sample(results, *, fraction=0.01, minimum=20, indices=None, executor=None,
+                  rtol=FLOAT_RTOL, progress=False) -> Verification:
+    """Re-simulate a fresh random sample of stored runs and compare them with the store.
+
+    ``results`` is a :class:`Results` or an experiment name (its book store is loaded).
+    The sample, ``sample_size(runs, fraction, minimum)`` distinct runs, is drawn from OS
+    entropy (``random.SystemRandom``) at every call, unless ``indices`` are given.
+    Raises :class:`VerificationError` naming the run, column, stored and recomputed
+    values at the first mismatch; returns a :class:`Verification` whose text is the same
+    whichever runs were drawn.
+    """
+    res = load(results) if isinstance(results, str) else results
+    if not isinstance(res, Results):
+        raise TypeError(f"results must be a Results or an experiment name, "
+                        f"got {type(results).__name__}")
+    n = res.runs
+    if indices is None:
+        k = sample_size(n, fraction, minimum)
+        indices = sorted(random.SystemRandom().sample(range(n), k))
+    else:
+        indices = sorted({as_int(i, "index", minimum=0) for i in indices})
+        if any(i >= n for i in indices):
+            raise ValueError(f"indices must lie in [0, {n})")
+    experiment, config = res.experiment, res.config
+    fresh, _ = compute_rows(experiment, config, res.meta["seed"], n, indices=indices,
+                            executor=executor, progress=progress)
+    for i, row in zip(indices, fresh):
+        compare_rows(res.row(i), row, i, rtol)
+    return Verification(experiment.name, len(indices), n, tuple(indices), rtol)
+
+
+# ------------------------------------------------------------------------------- registry
+_REGISTRY: dict[str, Experiment] = {}
+
+
+def register(experiment: Experiment) -> Experiment:
+    """Add an experiment to the registry (names are unique)."""
+    if not isinstance(experiment, Experiment):
+        raise TypeError(f"experiment must be an Experiment, got {type(experiment).__name__}")
+    if experiment.name in _REGISTRY:
+        raise ValueError(f"an experiment named {experiment.name!r} is already registered")
+    _REGISTRY[experiment.name] = experiment
+    return experiment
+
+
+def get(name) -> Experiment:
+    """The registered experiment ``name``."""
+    if isinstance(name, Experiment):
+        return name
+    if not isinstance(name, str):
+        raise TypeError(f"name must be a str, got {type(name).__name__}")
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise ValueError(f"unknown experiment {name!r}; registered: "
+                         f"{', '.join(sorted(_REGISTRY))}") from None
+
+
+def names() -> list:
+    """Names of the registered experiments, in registration order."""
+    return list(_REGISTRY)
+
+
+def status(name) -> str:
+    """``current``, ``missing`` or ``stale: <reason>`` for the book store of ``name``."""
+    e = get(name)
+    try:
+        check_store(e, e.default_path(), e.config, e.seed, e.runs)
+    except MissingResultsError:
+        return "missing"
+    except StaleResultsError as exc:
+        return "stale: " + str(exc).split(" are stale: ")[-1].split("\n")[0]
+    except Exception as exc:  # unreadable file
+        return f"unreadable: {exc}"
+    return "current"
