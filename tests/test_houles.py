@@ -269,6 +269,8 @@ def test_failure_comparison():
     assert c.difference.lo > 0
     same = failure_comparison(np.column_stack([fa, fa]), 0, 1)
     assert same.difference.value == 0 and same.p_value == 1.0
+    # no discordant run is a tie with an interval of its own, not a zero-width one
+    assert same.difference.lo < 0 < same.difference.hi
     with pytest.raises(ValueError, match="failed"):
         failure_comparison(failed.astype(int), 0, 1)
     with pytest.raises(ValueError, match="b"):

@@ -392,7 +392,7 @@ def failure_anatomy(pos_err2, threshold=200.0):
 
 class FailureComparison(NamedTuple):
     """Paired failure outcomes of two filters on the same runs (see :func:`failure_comparison`)."""
-    difference: Estimate  # rate of A minus rate of B, paired bootstrap interval
+    difference: Estimate  # rate of A minus rate of B, paired (Newcombe) interval
     only_a: int           # runs that A failed and B did not
     only_b: int           # runs that B failed and A did not
     p_value: float        # exact two-sided McNemar test on the discordant runs
@@ -417,10 +417,8 @@ def failure_comparison(failed, a, b):
     b = _filter_index(b, "b", nF)
     fa, fb = failed[:, a], failed[:, b]
     only_a, only_b = int(np.sum(fa & ~fb)), int(np.sum(~fa & fb))
-    if only_a + only_b == 0:  # identical outcomes in every run: the difference is exactly 0
-        diff = Estimate(0.0, 0.0, 0.0, n=fa.size, method="no discordant runs")
-    else:
-        diff = paired_diff_ci(fa.astype(float), fb.astype(float))
+    # 0/1 runs: Newcombe's paired interval, which keeps a width with no discordant run
+    diff = paired_diff_ci(fa.astype(float), fb.astype(float))
     return FailureComparison(diff, only_a, only_b, mcnemar_exact(only_a, only_b))
 
 
