@@ -69,10 +69,10 @@ from ._core import (
     verify_sample,
     write_store,
 )
-from .registry import HoulesConfig, HpdaMonteCarloConfig
+from .registry import HoulesConfig, HoulesSweepConfig, HpdaMonteCarloConfig
 
 __all__ = [
-    "FLOAT_RTOL", "Experiment", "HoulesConfig", "HpdaMonteCarloConfig", "MissingResultsError",
+    "FLOAT_RTOL", "Experiment", "HoulesConfig", "HoulesSweepConfig", "HpdaMonteCarloConfig", "MissingResultsError",
     "Results", "StaleResultsError", "Verification", "VerificationError", "check_store",
     "code_version", "compare_rows", "compute_rows", "config_hash", "get", "load", "names",
     "obtain", "read_metadata", "register", "results_dir", "run_experiment", "sample_size",

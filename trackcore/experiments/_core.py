@@ -298,7 +298,13 @@ def write_store(path, experiment, config, seed, rows, *, wall_seconds, cpu_secon
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(path.suffix + ".tmp")
-    pq.write_table(table, tmp, compression="zstd", compression_level=19)
+    # floats: byte-stream-split encoding (their bytes grouped by significance, which zstd
+    # compresses far better than dictionaries of distinct values); others: dictionaries
+    paths = {name: name + (".list.element" if shapes[name][0] else "") for name in cols}
+    floats = [paths[k] for k, a in cols.items() if np.issubdtype(a.dtype, np.floating)]
+    others = ["run"] + [paths[k] for k in cols if paths[k] not in floats]
+    pq.write_table(table, tmp, compression="zstd", compression_level=19,
+                   use_dictionary=others, use_byte_stream_split=floats or False)
     os.replace(tmp, path)
     return path
 

@@ -23,7 +23,7 @@ from ..scenarios.hpda_scenario import (
 )
 from ._core import Experiment, register
 
-__all__ = ["HpdaMonteCarloConfig", "HoulesConfig"]
+__all__ = ["HpdaMonteCarloConfig", "HoulesConfig", "HoulesSweepConfig", "houles_sweep_trial"]
 
 
 def _parse(value, kind, name):
@@ -47,6 +47,12 @@ def _parse(value, kind, name):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
             raise TypeError(f"{name} must be an integer, got {value!r}")
         return int(value)
+    if kind == "floats":
+        if isinstance(value, str):
+            value = tuple(v.strip() for v in value.split(",") if v.strip())
+        if not isinstance(value, (tuple, list)):
+            raise TypeError(f"{name} must be a sequence of numbers, got {value!r}")
+        return tuple(_parse(v, float, name) for v in value)
     if kind is tuple:
         if isinstance(value, str):
             value = tuple(v.strip() for v in value.split(",") if v.strip())
@@ -218,8 +224,148 @@ def _houles_extract(run, config):
 
 register(Experiment(
     name="tom-imm-houles",
-    description="TOM-IMM chapter, Table 1: Singer-, CAR- and TOM-IMM-PDAF on the Houles "
-                "scenario in clutter (not yet stored; its notebook runs it live)",
+    description="TOM-IMM chapter, Table 1 and Fig. 5: Singer-, CAR- and TOM-IMM-PDAF on the "
+                "Houles scenario in clutter (error series and gating per run)",
     trial=houles_imm_trial, call=_houles_call, extract=_houles_extract,
     config=HoulesConfig(), seed=20261123, runs=1000, version="1",
     notebook="book/001-tom-imm/03-houles-monte-carlo.ipynb"))
+
+
+@dataclass(frozen=True)
+class HoulesSweepConfig(_Config):
+    """Variants of the Houles experiment reduced to per-run metrics (no error series).
+
+    ``filters``: IMM-PDAFs run on the same measurements, each ``"singer"`` (the
+    chapter's Singer-IMM), ``"singer:TAU:SIGMA_M"`` (its fast Singer model set to
+    ``tau`` s and ``sigma_m`` m/s^2), ``"car:SIGMA_CV"`` (the CAR-IMM with that CV
+    noise, m/s^2) or ``"tom"``; ``gates``: gate probabilities, each run with every
+    filter on the same measurements; ``clutter_density`` (1/m^2) and ``pd`` as in
+    :class:`HoulesConfig`; ``target_gated``: also store the target's gating per scan.
+    """
+
+    filters: tuple
+    gates: tuple = (0.99,)
+    clutter_density: float = 2e-6
+    pd: float = 1.0
+    target_gated: int = 0
+
+    _KINDS = {"filters": tuple, "gates": "floats", "clutter_density": float, "pd": float,
+              "target_gated": int}
+
+    def __post_init__(self):
+        if not isinstance(self.filters, tuple) or not self.filters:
+            raise TypeError(f"filters must be a non-empty tuple, got {self.filters!r}")
+        for spec in self.filters:
+            _houles_model_set(spec)  # raises on a bad spec
+        if not isinstance(self.gates, tuple) or not self.gates:
+            raise TypeError(f"gates must be a non-empty tuple, got {self.gates!r}")
+        for g in self.gates:
+            if isinstance(g, bool) or not isinstance(g, (int, float)) or not 0 < g < 1:
+                raise ValueError(f"every gate probability must be in (0, 1), got {g!r}")
+        if len(set(self.gates)) != len(self.gates):
+            raise ValueError(f"gates must not repeat, got {self.gates}")
+        for name in ("clutter_density", "pd"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise ValueError(f"{name} must be a finite number, got {v!r}")
+        if self.clutter_density < 0:
+            raise ValueError(f"clutter_density must be >= 0, got {self.clutter_density}")
+        if not 0 < self.pd <= 1:
+            raise ValueError(f"pd must be in (0, 1], got {self.pd}")
+        if self.target_gated not in (0, 1) or isinstance(self.target_gated, bool):
+            raise ValueError(f"target_gated must be 0 or 1, got {self.target_gated!r}")
+
+
+@functools.lru_cache(maxsize=64)
+def _houles_model_set(spec):
+    """The IMM model set named by a filter spec of :class:`HoulesSweepConfig`."""
+    from ..trackers import car_imm_model_set, singer_imm_model_set, tom_imm_model_set
+
+    if not isinstance(spec, str):
+        raise TypeError(f"a filter spec must be a str, got {spec!r}")
+    kind, *nums = spec.split(":")
+    try:
+        vals = [float(v) for v in nums]
+    except ValueError:
+        raise ValueError(f"filter spec {spec!r}: parameters must be numbers") from None
+    if not all(math.isfinite(v) and v > 0 for v in vals):
+        raise ValueError(f"filter spec {spec!r}: parameters must be finite and > 0")
+    if kind == "singer" and not vals:
+        return singer_imm_model_set()
+    if kind == "singer" and len(vals) == 2:
+        return singer_imm_model_set(tau=(20.0, vals[0]), sigma_m=(15.0, vals[1]))
+    if kind == "car" and len(vals) == 1:
+        return car_imm_model_set(sigma_cv=vals[0])
+    if kind == "tom" and not vals:
+        return tom_imm_model_set()
+    raise ValueError(f"unknown filter spec {spec!r}; expected 'singer', 'singer:TAU:SIGMA_M', "
+                     f"'car:SIGMA_CV' or 'tom'")
+
+
+def houles_sweep_trial(rng, model_sets, gates, *, pd=1.0, clutter_density=2e-6):
+    """One run of :func:`~trackcore.scenarios.houles_imm_trial` at every gate probability
+    in ``gates``, each from the same generator state (so on the same measurements, as
+    separate ``montecarlo.run`` calls with the same seed give); returns the runs."""
+    from ..core.validation import as_rng
+
+    rng = as_rng(rng)
+    state = rng.bit_generator.state
+    out = []
+    for pg in gates:
+        rng.bit_generator.state = state
+        out.append(houles_imm_trial(rng, model_sets, pd=pd, pg=pg,
+                                    clutter_density=clutter_density))
+    return out
+
+
+def _sweep_call(config):
+    return ([_houles_model_set(s) for s in config.filters], config.gates), {
+        "pd": config.pd, "clutter_density": config.clutter_density}
+
+
+def _sweep_extract(runs, config):
+    """Per gate and filter: the window mean squares (total, manoeuvring,
+    non-manoeuvring; what every RMSE of the chapter pools), the largest and the last
+    squared position error (every failure threshold, a permanent loss) and, with
+    ``target_gated``, the gating per scan (the gate-miss failures)."""
+    from ..scenarios.houles import window_mse
+
+    e = np.stack([np.asarray(r.pos_err2, dtype=np.float64) for r in runs])  # (G, F, 90)
+    row = {"window_mse": window_mse(e), "max_err2": e.max(axis=-1),
+           "last_err2": np.ascontiguousarray(e[..., -1])}
+    if config.target_gated:
+        row["target_gated"] = np.stack([np.asarray(r.target_gated, dtype=np.int8)
+                                        for r in runs])
+    return row
+
+
+HOULES_SEED = 20261123
+HOULES_CAL_SEED = 20261127
+#: The fast Singer model's settings of the chapter's sweep: tau (s) by sigma_m from
+#: Singer's rule with A_max = 60 m/s^2 at (P_max, P_0) = (0.5, 0), (0.2, 0.2), (0.1, 0.5).
+SINGER_SWEEP = tuple((tau, 60.0 * math.sqrt((1 + 4 * pm - p0) / 3))
+                     for tau in (5.0, 10.0, 20.0)
+                     for pm, p0 in ((0.5, 0.0), (0.2, 0.2), (0.1, 0.5)))
+_NB = "book/001-tom-imm/03-houles-monte-carlo.ipynb"
+for _name, _desc, _config, _seed, _runs in (
+        ("tom-imm-houles-gates",
+         "TOM-IMM chapter, the gate: the three IMM-PDAFs of Table 1 at P_G = 0.999 and "
+         "0.9999 on Table 1's runs (per-run metrics and gating)",
+         HoulesSweepConfig(("singer", "car:5", "tom"), gates=(0.999, 0.9999), target_gated=1),
+         HOULES_SEED, 1000),
+        ("tom-imm-houles-car-prior",
+         "TOM-IMM chapter, ablation: CAR-IMM with the prior CV noise 1 m/s^2 on Table 1's runs",
+         HoulesSweepConfig(("car:1",)), HOULES_SEED, 1000),
+        ("tom-imm-houles-singer-sweep",
+         "TOM-IMM chapter, Singer's tuning: nine fast Singer models on the first runs of "
+         "Table 1",
+         HoulesSweepConfig(tuple(f"singer:{t!r}:{s!r}" for t, s in SINGER_SWEEP)),
+         HOULES_SEED, 300),
+        ("tom-imm-houles-car-calibration",
+         "TOM-IMM chapter, CAR's CV noise calibrated to the paper's CAR column: CAR-IMMs "
+         "with CV noise 1, 2, 3, 5, 8 m/s^2 on a separate stream",
+         HoulesSweepConfig(tuple(f"car:{s!r}" for s in (1.0, 2.0, 3.0, 5.0, 8.0))),
+         HOULES_CAL_SEED, 400)):
+    register(Experiment(name=_name, description=_desc, trial=houles_sweep_trial,
+                        call=_sweep_call, extract=_sweep_extract, config=_config, seed=_seed,
+                        runs=_runs, version="1", notebook=_NB))

@@ -48,6 +48,8 @@ __all__ = [
     "failure_comparison",
     "rmse_estimate",
     "rmse_ratio",
+    "rmse_estimate_mse",
+    "rmse_ratio_mse",
     "HoulesTable",
     "houles_table",
 ]
@@ -458,6 +460,20 @@ def _pooled_ratio(cols):
     return _pooled_rmse(cols[..., :2]) / _pooled_rmse(cols[..., 2:])
 
 
+def _mse_failed(mse, failed):
+    """Checked per-run window mean squares (runs, filters, 3) and failures (runs, filters)."""
+    m = as_array(mse, "mse", ndim=3, finite=False)
+    if m.shape[-1] != len(_WINDOWS):
+        raise ValueError(f"mse must have shape (runs, filters, {len(_WINDOWS)}) (windows "
+                         f"{_WINDOWS}), got {m.shape}")
+    if np.any(np.isnan(m)) or np.any(m < 0):
+        raise ValueError("mse must hold non-negative mean squared errors (no NaN)")
+    failed = np.asarray(failed)
+    if failed.shape != m.shape[:2] or failed.dtype != np.bool_:
+        raise ValueError(f"failed must be a bool array of shape {m.shape[:2]}")
+    return m, failed
+
+
 def rmse_estimate(pos_err2, failed, f=0, *, window="total"):
     """Pooled RMSE (m) of filter ``f`` over the runs it did not fail, with its BCa
     bootstrap interval over runs (:func:`trackcore.stats.bootstrap_ci`).
@@ -466,12 +482,24 @@ def rmse_estimate(pos_err2, failed, f=0, *, window="total"):
     is ``"total"``, ``"manoeuvring"`` or ``"non-manoeuvring"``.
     """
     e, failed = _runs_filters(pos_err2, failed)
-    f = _filter_index(f, "f", e.shape[1])
+    return _rmse_estimate(_window_mse(e), failed, f, window)
+
+
+def rmse_estimate_mse(mse, failed, f=0, *, window="total"):
+    """:func:`rmse_estimate` from the per-run window mean squares ``mse`` (runs,
+    filters, 3) = :func:`window_mse` of ``pos_err2``: the same numbers, bit for bit,
+    from stored per-run metrics instead of the error series."""
+    m, failed = _mse_failed(mse, failed)
+    return _rmse_estimate(m, failed, f, window)
+
+
+def _rmse_estimate(mse, failed, f, window):
+    f = _filter_index(f, "f", mse.shape[1])
     w = _window_index(window)
     ok = ~failed[:, f]
     if ok.sum() < 2:
         raise ValueError(f"filter {f} survives fewer than 2 runs; no RMSE interval")
-    m = np.where(ok, _window_mse(e[:, f])[:, w], 0.0)
+    m = np.where(ok, mse[:, f, w], 0.0)
     return bootstrap_ci(_pooled_rmse, np.column_stack([m, ok.astype(float)]))
 
 
@@ -486,13 +514,24 @@ def rmse_ratio(pos_err2, failed, num, den=0, *, window="total", survivors="own")
     mean squared errors, whose square root is the RMSE ratio.
     """
     e, failed = _runs_filters(pos_err2, failed)
-    nF = e.shape[1]
+    return _rmse_ratio(_window_mse(e), failed, num, den, window, survivors)
+
+
+def rmse_ratio_mse(mse, failed, num, den=0, *, window="total", survivors="own"):
+    """:func:`rmse_ratio` from the per-run window mean squares ``mse`` (runs, filters,
+    3) = :func:`window_mse` of ``pos_err2`` (the same numbers, bit for bit)."""
+    m, failed = _mse_failed(mse, failed)
+    return _rmse_ratio(m, failed, num, den, window, survivors)
+
+
+def _rmse_ratio(mse, failed, num, den, window, survivors):
+    nF = mse.shape[1]
     a = _filter_index(num, "num", nF)
     b = _filter_index(den, "den", nF)
     w = _window_index(window)
     if survivors not in ("own", "common"):
         raise ValueError(f"survivors must be 'own' or 'common', got {survivors!r}")
-    mse = _window_mse(e)[:, :, w]
+    mse = mse[:, :, w]
     if survivors == "own":
         oka, okb = ~failed[:, a], ~failed[:, b]
         if oka.sum() < 2 or okb.sum() < 2:
