@@ -351,11 +351,11 @@ for _name, _desc, _config, _seed, _runs in (
         ("tom-imm-houles-gates",
          "TOM-IMM chapter, the gate: the three IMM-PDAFs of Table 1 at P_G = 0.999 and "
          "0.9999 on Table 1's runs (per-run metrics and gating)",
-         HoulesSweepConfig(("singer", "car:5", "tom"), gates=(0.999, 0.9999), target_gated=1),
+         HoulesSweepConfig(("singer", "car:5.0", "tom"), gates=(0.999, 0.9999), target_gated=1),
          HOULES_SEED, 1000),
         ("tom-imm-houles-car-prior",
          "TOM-IMM chapter, ablation: CAR-IMM with the prior CV noise 1 m/s^2 on Table 1's runs",
-         HoulesSweepConfig(("car:1",)), HOULES_SEED, 1000),
+         HoulesSweepConfig(("car:1.0",)), HOULES_SEED, 1000),
         ("tom-imm-houles-singer-sweep",
          "TOM-IMM chapter, Singer's tuning: nine fast Singer models on the first runs of "
          "Table 1",
