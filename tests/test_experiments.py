@@ -13,6 +13,7 @@ from trackcore import montecarlo
 from trackcore.experiments import (
     FLOAT_RTOL,
     HoulesConfig,
+    HoulesSweepConfig,
     HpdaMonteCarloConfig,
     MissingResultsError,
     StaleResultsError,
@@ -76,6 +77,34 @@ def test_rows_equal_the_notebook_computation(store):
     assert np.array_equal(res["pos_err2"], direct.pos_err2), "pos_err2 differs"
     assert np.array_equal(res["target_gated"], direct.target_gated), "gating differs"
     assert res["target_gated"].dtype == np.int8
+
+
+def test_houles_sweep_rows_equal_separate_runs():
+    """A sweep row holds, per gate, what separate montecarlo.run calls at that gate give."""
+    from trackcore.experiments.registry import _houles_model_set
+    from trackcore.scenarios.houles import window_mse
+
+    name = "tom-imm-houles-gates"
+    e = get(name)
+    res = run_experiment(name, runs=3, write=False, progress=False)
+    sets = [_houles_model_set(s) for s in e.config.filters]
+    for g, pg in enumerate(e.config.gates):
+        d = montecarlo.stack_results(montecarlo.run(houles_imm_trial, 3, e.seed, args=(sets,),
+                                                    kwargs={"pg": pg}))
+        assert res["window_mse"][:, g].tobytes() == window_mse(d.pos_err2).tobytes(), pg
+        assert np.array_equal(res["max_err2"][:, g], d.pos_err2.max(axis=-1)), pg
+        assert np.array_equal(res["last_err2"][:, g], d.pos_err2[..., -1]), pg
+        assert np.array_equal(res["target_gated"][:, g], d.target_gated), pg
+    c = HoulesSweepConfig(("tom",))
+    assert c.with_overrides({"gates": "0.9,0.99"}).gates == (0.9, 0.99)
+    with pytest.raises(ValueError, match="unknown filter spec"):
+        HoulesSweepConfig(("kalman",))
+    with pytest.raises(ValueError, match="parameters must be numbers"):
+        HoulesSweepConfig(("car:x",))
+    with pytest.raises(ValueError, match="gate probability"):
+        HoulesSweepConfig(("tom",), gates=(1.0,))
+    with pytest.raises(ValueError, match="must not repeat"):
+        HoulesSweepConfig(("tom",), gates=(0.9, 0.9))
 
 
 def test_store_metadata_and_prefix_property(store):

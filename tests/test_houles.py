@@ -153,7 +153,8 @@ def test_measurements_bad_input():
 # ---------------------------------------------------------------- the experiment and Table 1
 from trackcore.scenarios import (HOULES_TIMES, failure_anatomy, gate_miss_failures,  # noqa: E402
                                  houles_imm_trial, houles_table, houles_windows,
-                                 position_failures, rmse_estimate, rmse_ratio, window_mse)
+                                 position_failures, rmse_estimate, rmse_estimate_mse,
+                                 rmse_ratio, rmse_ratio_mse, window_mse)
 from trackcore.stats import Estimate, ratio_ci  # noqa: E402
 from trackcore.trackers import (car_imm_model_set, cv_model_set,  # noqa: E402
                                 tom_imm_model_set)
@@ -226,6 +227,30 @@ def test_ratio_survivor_definitions():
         rmse_ratio(e, failed, 1, 0, window="turns")
     with pytest.raises(ValueError, match="num"):
         rmse_ratio(e, failed, 3, 0)
+
+
+def test_rmse_from_window_mse_is_bit_identical():
+    """The stored-metric path (per-run window mean squares computed run by run) gives the
+    same estimates, bit for bit, as the error-series path."""
+    rng = np.random.default_rng(11)
+    e = rng.exponential(400.0, size=(120, 3, 90))
+    e[:15, 2, 30] = 1e6
+    e[10:30, 0, 50] = 1e6
+    failed = position_failures(e)
+    m = np.stack([window_mse(e[i]) for i in range(len(e))])  # as the store holds them
+    assert m.tobytes() == window_mse(e).tobytes()
+    np.testing.assert_array_equal(failed, e.max(axis=-1) > 200.0**2)
+    for w in ("total", "manoeuvring", "non-manoeuvring"):
+        assert rmse_estimate_mse(m, failed, 2, window=w) == rmse_estimate(e, failed, 2, window=w)
+        for surv in ("own", "common"):
+            assert rmse_ratio_mse(m, failed, 2, 0, window=w, survivors=surv) == \
+                rmse_ratio(e, failed, 2, 0, window=w, survivors=surv)
+    with pytest.raises(ValueError, match="mse must have shape"):
+        rmse_estimate_mse(e, failed, 0)
+    with pytest.raises(ValueError, match="non-negative"):
+        rmse_ratio_mse(-m, failed, 1, 0)
+    with pytest.raises(ValueError, match="failed must be a bool array"):
+        rmse_estimate_mse(m, failed[:, :2], 0)
 
 
 def test_failure_anatomy():
