@@ -23,7 +23,7 @@ from ..scenarios.hpda_scenario import (
 )
 from ._core import Experiment, register
 
-__all__ = ["HpdaMonteCarloConfig", "HoulesConfig", "HoulesSweepConfig", "houles_sweep_trial"]
+__all__ = ["HoulesConfig", "HoulesSweepConfig", "HpdaMonteCarloConfig", "houles_sweep_trial"]
 
 
 def _parse(value, kind, name):
@@ -349,21 +349,21 @@ SINGER_SWEEP = tuple((tau, 60.0 * math.sqrt((1 + 4 * pm - p0) / 3))
 _NB = "book/001-tom-imm/03-houles-monte-carlo.ipynb"
 for _name, _desc, _config, _seed, _runs in (
         ("tom-imm-houles-gates",
-         "TOM-IMM chapter, the gate: the three IMM-PDAFs of Table 1 at P_G = 0.999 and "
-         "0.9999 on Table 1's runs (per-run metrics and gating)",
+         ("TOM-IMM chapter, the gate: the three IMM-PDAFs of Table 1 at P_G = 0.999 and "
+          "0.9999 on Table 1's runs (per-run metrics and gating)"),
          HoulesSweepConfig(("singer", "car:5.0", "tom"), gates=(0.999, 0.9999), target_gated=1),
          HOULES_SEED, 1000),
         ("tom-imm-houles-car-prior",
          "TOM-IMM chapter, ablation: CAR-IMM with the prior CV noise 1 m/s^2 on Table 1's runs",
          HoulesSweepConfig(("car:1.0",)), HOULES_SEED, 1000),
         ("tom-imm-houles-singer-sweep",
-         "TOM-IMM chapter, Singer's tuning: nine fast Singer models on the first runs of "
-         "Table 1",
+         ("TOM-IMM chapter, Singer's tuning: nine fast Singer models on the first runs of "
+          "Table 1"),
          HoulesSweepConfig(tuple(f"singer:{t!r}:{s!r}" for t, s in SINGER_SWEEP)),
          HOULES_SEED, 300),
         ("tom-imm-houles-car-calibration",
-         "TOM-IMM chapter, CAR's CV noise calibrated to the paper's CAR column: CAR-IMMs "
-         "with CV noise 1, 2, 3, 5, 8 m/s^2 on a separate stream",
+         ("TOM-IMM chapter, CAR's CV noise calibrated to the paper's CAR column: CAR-IMMs "
+          "with CV noise 1, 2, 3, 5, 8 m/s^2 on a separate stream"),
          HoulesSweepConfig(tuple(f"car:{s!r}" for s in (1.0, 2.0, 3.0, 5.0, 8.0))),
          HOULES_CAL_SEED, 400)):
     register(Experiment(name=_name, description=_desc, trial=houles_sweep_trial,
