@@ -70,12 +70,19 @@ def test_parse_estimate_rejects_text_without_a_sound_interval(text):
     ((0.01, -0.01, 0.03), {"type": "direction", "expect": "below", "ref": 0}, "undecided"),
     ((0.0, 0.0, 0.0), {"type": "direction", "expect": "below", "ref": 0}, "undecided"),
     ((1.3, 1.1, 1.5), {"type": "direction", "expect": "above", "ref": 1}, "reproduced"),
-    # a narrow tie is still a tie: never a refutation of a "better than" claim
+    # a narrow tie is still a tie: never a refutation of a "better than" claim ...
     ((0.001, -0.004, 0.006), {"type": "direction", "expect": "below", "ref": 0},
      "undecided"),
-    # a decided improvement, however small, holds
-    ((-0.006, -0.010, -0.002), {"type": "direction", "expect": "below", "ref": 0},
-     "reproduced"),
+    # ... unless an equivalence margin was declared and the interval lies inside it
+    ((0.001, -0.004, 0.006), {"type": "direction", "expect": "below", "ref": 0,
+                              "margin": 0.01}, "not reproduced"),
+    ((0.001, -0.02, 0.006), {"type": "direction", "expect": "below", "ref": 0,
+                             "margin": 0.01}, "undecided"),
+    # a decided improvement, however small, holds: direction is checked before the margin
+    ((-0.006, -0.010, -0.002), {"type": "direction", "expect": "below", "ref": 0,
+                                "margin": 0.02}, "reproduced"),
+    ((0.006, 0.002, 0.010), {"type": "direction", "expect": "below", "ref": 0,
+                             "margin": 0.02}, "not reproduced"),
     # bands around the paper's number
     ((0.10, 0.08, 0.12), {"type": "band", "paper": 0.1, "tol": 0.05}, "reproduced"),
     ((0.13, 0.11, 0.14), {"type": "band", "paper": 0.1, "tol": 0.05},
@@ -162,8 +169,8 @@ def test_a_sound_registry_passes_and_computes(tmp_path):
     (_claim(rule={"type": "direction", "expect": "sideways", "ref": 0}),
      "expect: below | above"),
     (_claim(rule={"type": "direction", "expect": "below"}), "needs its reference 'ref'"),
-    (_claim(rule={"type": "direction", "expect": "below", "ref": 0, "margin": 0.1}),
-     "takes no margin"),
+    (_claim(rule={"type": "direction", "expect": "below", "ref": 0, "margin": -0.1}),
+     "margin must be positive"),
     (_claim(ours="nb::pct"), "in percent but the rule lacks unit"),
     (_claim(rule={"type": "direction", "expect": "below", "ref": 0, "unit": "%"}),
      "not in percent but the rule declares"),

@@ -41,11 +41,14 @@ most *undecided*, whatever the run cells say), or in ``not_applicable: {name: wh
 Rules (numbers are in the units the glued value prints; a rule whose glued values end in
 ``%`` says ``unit: "%"``, and only such a rule does):
 
-* ``{type: direction, expect: below|above, ref: r}``: the claim holds when the whole
-  interval lies below (above) ``ref`` (given explicitly: 0 for a difference, 1 or 100 % for a
-  ratio); it fails when the whole interval lies on the other side; otherwise (an interval
-  that contains ``ref``, however narrow) it is undecided.  A claim that states a size ("20 %
-  better") is a band, not a direction.
+* ``{type: direction, expect: below|above, ref: r, margin: m}``: the claim holds when the
+  whole interval lies below (above) ``ref`` (given explicitly: 0 for a difference, 1 or 100 %
+  for a ratio), however small the gain; it fails when the whole interval lies on the other
+  side.  An interval that contains ``ref`` is undecided (a tie), unless the claim declared an
+  equivalence ``margin`` before its runs and the whole interval lies inside
+  ``[ref - m, ref + m]``: a demonstrated equivalence refutes a "better than" claim.  Direction
+  is checked first, so a decided gain smaller than the margin still holds.  A claim that
+  states a size ("20 % better") is a band, not a direction.
 * ``{type: band, paper: p, lo: a, hi: b}`` (or ``tol: t`` for ``p ± t``, ``rel_tol: r`` for
   ``p (1 ± r)``; either end may be left open): *reproduced* when the whole interval lies in the
   band and contains ``p`` (or no ``p`` is given), *reproduced within tolerance* when it lies in
@@ -203,11 +206,14 @@ def decide(rule: dict, est: tuple[float, float, float]) -> str:
     kind = rule.get("type")
     if kind == "direction":
         ref = float(rule["ref"])
-        below = hi < ref
-        above = lo > ref
-        if rule["expect"] == "below":
-            return "reproduced" if below else "not reproduced" if above else "undecided"
-        return "reproduced" if above else "not reproduced" if below else "undecided"
+        below, above = hi < ref, lo > ref
+        if below or above:
+            holds = below if rule["expect"] == "below" else above
+            return "reproduced" if holds else "not reproduced"
+        margin = rule.get("margin")
+        if margin is not None and ref - float(margin) <= lo and hi <= ref + float(margin):
+            return "not reproduced"   # equivalence shown inside the declared margin
+        return "undecided"
     if kind == "band":
         b_lo, b_hi = band_ends(rule)
         if b_lo <= lo and hi <= b_hi:
@@ -413,7 +419,7 @@ def _check_rule(rule, where: str, ours_needed: bool) -> list[str]:
     kind = rule.get("type")
     if kind not in RULE_TYPES:
         return [f"{where}: rule type must be one of {RULE_TYPES}, got {kind!r}"]
-    numeric = ("ref", "paper", "lo", "hi", "tol", "rel_tol")
+    numeric = ("ref", "margin", "paper", "lo", "hi", "tol", "rel_tol")
     for f in numeric:
         if f in rule and not isinstance(rule[f], (int, float)) or isinstance(rule.get(f), bool):
             out.append(f"{where}: rule field {f!r} must be a number")
@@ -427,9 +433,8 @@ def _check_rule(rule, where: str, ours_needed: bool) -> list[str]:
         if rule.get("ref") is None:
             out.append(f"{where}: a direction rule needs its reference 'ref' (0 for a "
                        "difference, 1 or 100 for a ratio)")
-        if "margin" in rule:
-            out.append(f"{where}: a direction rule takes no margin: a claim of a size is a "
-                       "band")
+        if rule.get("margin") is not None and rule["margin"] <= 0:
+            out.append(f"{where}: margin must be positive")
         extra = set(rule) - {"type", "expect", "ref", "margin", "unit"}
     else:
         if rule.get("tol") is not None or rule.get("rel_tol") is not None:
