@@ -64,16 +64,25 @@ def test_parse_estimate_rejects_text_without_a_sound_interval(text):
 
 @pytest.mark.parametrize("est, rule, verdict", [
     # "A below B" on a paired difference
-    ((-0.04, -0.06, -0.02), {"type": "direction", "expect": "below"}, "reproduced"),
-    ((0.04, 0.02, 0.06), {"type": "direction", "expect": "below"}, "not reproduced"),
-    ((0.01, -0.01, 0.03), {"type": "direction", "expect": "below"}, "undecided"),
-    ((0.0, 0.0, 0.0), {"type": "direction", "expect": "below"}, "undecided"),
-    ((1.3, 1.1, 1.5), {"type": "direction", "expect": "above", "ref": 1}, "reproduced"),
-    # a tie inside a declared equivalence margin refutes a "better than" claim
-    ((0.001, -0.004, 0.006), {"type": "direction", "expect": "below", "margin": 0.01},
+    ((-0.04, -0.06, -0.02), {"type": "direction", "expect": "below", "ref": 0}, "reproduced"),
+    ((0.04, 0.02, 0.06), {"type": "direction", "expect": "below", "ref": 0},
      "not reproduced"),
-    ((0.001, -0.02, 0.006), {"type": "direction", "expect": "below", "margin": 0.01},
+    ((0.01, -0.01, 0.03), {"type": "direction", "expect": "below", "ref": 0}, "undecided"),
+    ((0.0, 0.0, 0.0), {"type": "direction", "expect": "below", "ref": 0}, "undecided"),
+    ((1.3, 1.1, 1.5), {"type": "direction", "expect": "above", "ref": 1}, "reproduced"),
+    # a narrow tie is still a tie: never a refutation of a "better than" claim ...
+    ((0.001, -0.004, 0.006), {"type": "direction", "expect": "below", "ref": 0},
      "undecided"),
+    # ... unless an equivalence margin was declared and the interval lies inside it
+    ((0.001, -0.004, 0.006), {"type": "direction", "expect": "below", "ref": 0,
+                              "margin": 0.01}, "not reproduced"),
+    ((0.001, -0.02, 0.006), {"type": "direction", "expect": "below", "ref": 0,
+                             "margin": 0.01}, "undecided"),
+    # a decided improvement, however small, holds: direction is checked before the margin
+    ((-0.006, -0.010, -0.002), {"type": "direction", "expect": "below", "ref": 0,
+                                "margin": 0.02}, "reproduced"),
+    ((0.006, 0.002, 0.010), {"type": "direction", "expect": "below", "ref": 0,
+                             "margin": 0.02}, "not reproduced"),
     # bands around the paper's number
     ((0.10, 0.08, 0.12), {"type": "band", "paper": 0.1, "tol": 0.05}, "reproduced"),
     ((0.13, 0.11, 0.14), {"type": "band", "paper": 0.1, "tol": 0.05},
@@ -119,7 +128,9 @@ def _registry(tmp_path, claims, readings=None):
                                  encoding="utf-8")
     _nb(ch / "nb.ipynb", {"d98": "-0.03 [-0.05, -0.01]", "d99": "0.01 [-0.01, 0.02]",
                           "d995": "-0.04 [-0.06, -0.02]", "up": "0.02 [0.01, 0.03]",
-                          "txt": "no interval", "v": "reproduced"})
+                          "txt": "no interval", "v": "reproduced",
+                          "pct": "12.0 [10.0, 14.0] %", "two": "1 [0, 2] and 3 [2, 4]",
+                          "flat": "0 (no interval)"})
     data = {"paper": "p", "title": "X", "measures": {"pd": "paired difference"},
             "readings": readings or [], "claims": claims}
     path = ch / "claims.yml"
@@ -130,7 +141,7 @@ def _registry(tmp_path, claims, readings=None):
 def _claim(**kw):
     c = {"id": "c1", "claim": "A beats B", "where": "Sec. 1", "kind": "quantitative",
          "evidence": "nb", "measure": "pd", "ours": "nb::d98",
-         "rule": {"type": "direction", "expect": "below"}, "targets": ["T1"]}
+         "rule": {"type": "direction", "expect": "below", "ref": 0}, "targets": ["T1"]}
     c.update(kw)
     return {k: v for k, v in c.items() if v is not None}
 
@@ -151,18 +162,36 @@ def test_a_sound_registry_passes_and_computes(tmp_path):
 @pytest.mark.parametrize("claim, message", [
     (_claim(rule=None), "needs a 'rule'"),
     (_claim(measure="nope"), "not declared in the chapter's measures"),
-    (_claim(verdict="not reproduced"), "disagrees with the rule"),
+    (_claim(verdict="not reproduced", not_applicable={"pi": "w"}), "disagrees with the rule"),
     (_claim(ours="nb::txt"), "has no 'value [lo, hi]'"),
     (_claim(ours="nb::missing"), "is not glued"),
     (_claim(ours=None), "or 'pending'"),
-    (_claim(rule={"type": "direction", "expect": "sideways"}), "expect: below | above"),
+    (_claim(rule={"type": "direction", "expect": "sideways", "ref": 0}),
+     "expect: below | above"),
+    (_claim(rule={"type": "direction", "expect": "below"}), "needs its reference 'ref'"),
+    (_claim(rule={"type": "direction", "expect": "below", "ref": 0, "margin": -0.1}),
+     "margin must be positive"),
+    (_claim(ours="nb::pct"), "in percent but the rule lacks unit"),
+    (_claim(rule={"type": "direction", "expect": "below", "ref": 0, "unit": "%"}),
+     "not in percent but the rule declares"),
+    (_claim(ours="nb::two"), "more than one"),
+    (_claim(), "reading 'pi' is not accounted for"),
+    (_claim(open_readings={"pi": ""}), "needs a one-line why"),
+    (_claim(open_readings={"nope": "w"}), "not a declared reading"),
+    (_claim(readings=["pi"], ours={"0.98": "nb::d98", "0.99": "nb::d99",
+                                   "0.995": "nb::d995"}, not_applicable={"pi": "w"}),
+     "both run and in not_applicable"),
+    (_claim(readings=["pi"], ours={"0.98": "nb::d98", "0.99": {"pending": ""},
+                                   "0.995": "nb::d995"}), "a pending cell needs its why"),
     (_claim(rule={"type": "band", "paper": 1}), "needs lo, hi, tol or rel_tol"),
     (_claim(rule={"type": "band", "lo": 2, "hi": 1}), "is empty"),
     (_claim(rule={"type": "magic"}), "rule type must be one of"),
-    (_claim(rule={"all": [{"type": "direction", "expect": "below"}]}), "at least two parts"),
-    (_claim(kind="qualitative", rule={"type": "direction", "expect": "below"}),
+    (_claim(rule={"all": [{"type": "direction", "expect": "below", "ref": 0}]}),
+     "at least two parts"),
+    (_claim(kind="qualitative", rule={"type": "direction", "expect": "below", "ref": 0}),
      "only quantitative claims take a rule"),
-    (_claim(verdict_key="nb::v", ours="nb::up"), "the notebook's verdict"),
+    (_claim(verdict_key="nb::v", ours="nb::up", not_applicable={"pi": "w"}),
+     "the notebook's verdict"),
     (_claim(readings=["pi"]), "maps each reading"),
     (_claim(readings=["pi"], ours={"0.98": "nb::d98"}), "cover the readings grid"),
     (_claim(readings=["nope"], ours={"x": "nb::d98"}), "not declared"),
@@ -202,6 +231,66 @@ def test_pending_estimate_is_undecided(tmp_path):
     data = scorecard.load(path)
     ev = scorecard.evaluate(data, data["claims"][0], scorecard._Glue(path.parent))
     assert ev["verdict"] == "undecided"
+
+
+def _eval(path):
+    data = scorecard.load(path)
+    return scorecard.evaluate(data, data["claims"][0], scorecard._Glue(path.parent))
+
+
+def test_pending_cells_count_as_undecided(tmp_path):
+    # holds at two priors, the third not run: undecided, with the pending cell counted
+    ours = {"0.98": "nb::d98", "0.99": {"pending": "paired e at 0.99"}, "0.995": "nb::d995"}
+    path = _registry(tmp_path, [_claim(readings=["pi"], ours=ours)], readings=PI)
+    assert scorecard.problems(path) == []
+    ev = _eval(path)
+    assert ev["verdict"] == "undecided"
+    assert (ev["holds"], ev["cells"], ev["pending_cells"]) == (2, 3, 1)
+    # a failing cell beside a holding one decides "depends on reading" whatever is pending
+    ours["0.98"] = "nb::up"
+    path.write_text(yaml.safe_dump({**scorecard.load(path),
+                                    "claims": [_claim(readings=["pi"], ours=ours)]}),
+                    encoding="utf-8")
+    assert _eval(path)["verdict"] == "depends on reading"
+
+
+@pytest.mark.parametrize("ref, run", [("nb::d98", "reproduced"), ("nb::up", "not reproduced")])
+def test_open_readings_cap_a_verdict_at_undecided(tmp_path, ref, run):
+    path = _registry(tmp_path, [_claim(ours=ref, open_readings={"pi": "prior not run"})],
+                     readings=PI)
+    assert scorecard.problems(path) == []
+    ev = _eval(path)
+    assert (ev["verdict"], ev["run_verdict"]) == ("undecided", run)
+
+
+def test_not_applicable_reading_leaves_the_verdict(tmp_path):
+    path = _registry(tmp_path, [_claim(not_applicable={"pi": "a prior of another tracker"})],
+                     readings=PI)
+    assert scorecard.problems(path) == []
+    assert _eval(path)["verdict"] == "reproduced"
+
+
+def test_a_value_without_interval_is_undecided(tmp_path):
+    path = _registry(tmp_path, [_claim(ours="nb::flat")])
+    assert scorecard.problems(path) == []
+    assert _eval(path)["verdict"] == "undecided"
+
+
+def test_unchecked_errata_count_as_suspected(tmp_path):
+    erratum = dict(kind="erratum", rule=None, measure=None, ours=None, why="w",
+                   printed="a", corrected="b", check="c", targets=[])
+    claims = [_claim(id="e1", verdict="not reproduced", **erratum, **{"class": "paper error"}),
+              _claim(id="e2", verdict="not testable", **erratum, **{"class": "paper error"}),
+              _claim(id="e3", verdict="not testable", **erratum,
+                     **{"class": "source-text defect"})]
+    path = _registry(tmp_path, claims)
+    data = scorecard.load(path)
+    glue = scorecard._Glue(path.parent)
+    evaluated = {c["id"]: {"chapter": "000-x", "claim": c, "data": data,
+                           "eval": scorecard.evaluate(data, c, glue)} for c in data["claims"]}
+    errata = scorecard.counts(evaluated)["all"]["errata"]
+    assert (errata["paper error"], errata["suspected"], errata["source-text defect"]) == \
+        (1, 2, 0)
 
 
 def test_every_quantitative_claim_of_the_book_has_a_computed_verdict():

@@ -32,14 +32,23 @@ Each chapter keeps ``book/<chapter>/claims.yml``::
 
 A claim evaluated across readings names them (``readings: [pi11]``) and gives ``ours`` as a
 mapping from each reading value (several readings: the values joined by ``", "`` in the order
-named) to a glued reference; every cell of the grid must be present.
+named) to a glued reference; every cell of the grid must be present, either as a reference or
+as ``{pending: why}`` (a cell not yet run, which counts as undecided).  Every reading of the
+chapter is accounted for by every quantitative claim with a rule: named in ``readings``,
+listed in ``open_readings: {name: why}`` (it applies and has not been run: the verdict is at
+most *undecided*, whatever the run cells say), or in ``not_applicable: {name: why}``.
 
-Rules (numbers are in the units the glued value prints, percent when it ends in ``%``):
+Rules (numbers are in the units the glued value prints; a rule whose glued values end in
+``%`` says ``unit: "%"``, and only such a rule does):
 
-* ``{type: direction, expect: below|above, ref: 0, margin: m}``: the claim holds when the
-  whole interval lies below (above) ``ref`` (0 for a difference, 1 for a ratio); it fails when
-  the whole interval lies on the other side, or (a "better than" claim with a declared
-  equivalence ``margin``) inside ``[ref - m, ref + m]``; otherwise it is undecided.
+* ``{type: direction, expect: below|above, ref: r, margin: m}``: the claim holds when the
+  whole interval lies below (above) ``ref`` (given explicitly: 0 for a difference, 1 or 100 %
+  for a ratio), however small the gain; it fails when the whole interval lies on the other
+  side.  An interval that contains ``ref`` is undecided (a tie), unless the claim declared an
+  equivalence ``margin`` before its runs and the whole interval lies inside
+  ``[ref - m, ref + m]``: a demonstrated equivalence refutes a "better than" claim.  Direction
+  is checked first, so a decided gain smaller than the margin still holds.  A claim that
+  states a size ("20 % better") is a band, not a direction.
 * ``{type: band, paper: p, lo: a, hi: b}`` (or ``tol: t`` for ``p ± t``, ``rel_tol: r`` for
   ``p (1 ± r)``; either end may be left open): *reproduced* when the whole interval lies in the
   band and contains ``p`` (or no ``p`` is given), *reproduced within tolerance* when it lies in
@@ -56,7 +65,9 @@ and errata (with ``why``), and for a quantitative claim only as ``not testable``
 ``paper error`` (a substantive error of the authors), ``source-text defect`` (an OCR or
 transcription defect of the text we work from), ``notation`` (a convention), or ``none``
 (the printed form checks out, verdict ``reproduced``); an erratum of the first three classes
-shows ``printed``, ``corrected`` and ``check``.  Only paper errors count against a paper.
+shows ``printed``, ``corrected`` and ``check``.  Only paper errors count against a paper, and
+only confirmed ones: an erratum whose verdict is ``not testable`` (the print could not be
+checked) is counted as *suspected*, whatever its class.
 
 ``book/scorecard.md`` ends with the marker ``<!-- scorecard -->``; at ``source-read`` this
 extension replaces it with the counts and one table per paper, in MyST, whose "ours" cells
@@ -108,6 +119,7 @@ RULE_TYPES = ("direction", "band")
 _NUM = r"[-+−]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+−]?\d+)?"
 _ESTIMATE = re.compile(rf"({_NUM})\s*\[\s*({_NUM})\s*,\s*({_NUM})\s*\]\s*(%)?")
 _INTERVAL = re.compile(rf"\[\s*{_NUM}\s*,\s*{_NUM}\s*\]")
+NO_INTERVAL = "(no interval)"   # trackcore.stats refuses an interval on (nearly) equal runs
 
 
 # --------------------------------------------------------------------------- reading
@@ -193,15 +205,15 @@ def decide(rule: dict, est: tuple[float, float, float]) -> str:
     _, lo, hi = est
     kind = rule.get("type")
     if kind == "direction":
-        ref = float(rule.get("ref", 0.0))
+        ref = float(rule["ref"])
+        below, above = hi < ref, lo > ref
+        if below or above:
+            holds = below if rule["expect"] == "below" else above
+            return "reproduced" if holds else "not reproduced"
         margin = rule.get("margin")
         if margin is not None and ref - float(margin) <= lo and hi <= ref + float(margin):
-            return "not reproduced"
-        below = hi < ref
-        above = lo > ref
-        if rule["expect"] == "below":
-            return "reproduced" if below else "not reproduced" if above else "undecided"
-        return "reproduced" if above else "not reproduced" if below else "undecided"
+            return "not reproduced"   # equivalence shown inside the declared margin
+        return "undecided"
     if kind == "band":
         b_lo, b_hi = band_ends(rule)
         if b_lo <= lo and hi <= b_hi:
@@ -321,19 +333,38 @@ def evaluate(data: dict, claim: dict, glue: _Glue) -> dict:
     if claim.get("pending"):
         return {"verdict": "undecided", "per_reading": {}, "holds": None, "cells": 0,
                 "readings": names, "computed": True, "pending": claim["pending"]}
-    per = {}
+    per, pending = {}, 0
     for label in reading_grid(data, claim):
-        parts = []
+        parts, waiting = [], False
         for rule, ours in _rule_parts(claim):
             ref = _ref_for(ours, label)
             if ref is None:
                 raise ValueError(f"no 'ours' for reading {label!r}")
-            parts.append(decide(rule, parse_estimate(glue.text(ref))))
+            if _is_pending(ref):
+                parts.append("undecided")
+                waiting = True
+                continue
+            text = glue.text(ref)
+            if NO_INTERVAL in text and not _ESTIMATE.search(text):
+                parts.append("undecided")   # the runs are (nearly) all equal: no interval
+            else:
+                parts.append(decide(rule, parse_estimate(text)))
+        pending += waiting
         per[label] = combine_all(parts)
     verdicts = list(per.values())
-    return {"verdict": combine_readings(verdicts), "per_reading": per,
+    run = combine_readings(verdicts)
+    open_ = dict(claim.get("open_readings") or {})
+    verdict = run
+    if open_ and run in HOLDS + ("not reproduced",):
+        verdict = "undecided"
+    return {"verdict": verdict, "per_reading": per,
             "holds": sum(v in HOLDS for v in verdicts), "cells": len(verdicts),
+            "pending_cells": pending, "open_readings": open_, "run_verdict": run,
             "readings": names, "computed": True}
+
+
+def _is_pending(ref) -> bool:
+    return isinstance(ref, dict) and set(ref) == {"pending"}
 
 
 _CACHE: dict = {}
@@ -361,9 +392,9 @@ def _evaluate_all() -> dict[str, dict]:
         for c in data["claims"]:
             try:
                 ev = evaluate(data, c, glue)
-            except (KeyError, TypeError, ValueError):
-                ev = {"verdict": None, "per_reading": {}, "holds": None, "cells": 0,
-                      "readings": [], "computed": True}
+            except (KeyError, TypeError, ValueError) as exc:
+                raise ValueError(f"{path.parent.name}/claims.yml, claim {c.get('id')!r}: "
+                                 f"cannot compute the verdict: {exc}") from exc
             out[c["id"]] = {"chapter": path.parent.name, "claim": c, "eval": ev,
                             "data": data}
     return out
@@ -392,14 +423,19 @@ def _check_rule(rule, where: str, ours_needed: bool) -> list[str]:
     for f in numeric:
         if f in rule and not isinstance(rule[f], (int, float)) or isinstance(rule.get(f), bool):
             out.append(f"{where}: rule field {f!r} must be a number")
+    if rule.get("unit") not in (None, "%"):
+        out.append(f"{where}: rule unit must be '%' or absent")
     if out:
         return out
     if kind == "direction":
         if rule.get("expect") not in ("below", "above"):
             out.append(f"{where}: a direction rule needs expect: below | above")
+        if rule.get("ref") is None:
+            out.append(f"{where}: a direction rule needs its reference 'ref' (0 for a "
+                       "difference, 1 or 100 for a ratio)")
         if rule.get("margin") is not None and rule["margin"] <= 0:
             out.append(f"{where}: margin must be positive")
-        extra = set(rule) - {"type", "expect", "ref", "margin"}
+        extra = set(rule) - {"type", "expect", "ref", "margin", "unit"}
     else:
         if rule.get("tol") is not None or rule.get("rel_tol") is not None:
             if rule.get("paper") is None:
@@ -412,7 +448,7 @@ def _check_rule(rule, where: str, ours_needed: bool) -> list[str]:
             lo, hi = band_ends(rule)
             if lo > hi:
                 out.append(f"{where}: band [{lo}, {hi}] is empty")
-        extra = set(rule) - {"type", "paper", "lo", "hi", "tol", "rel_tol"}
+        extra = set(rule) - {"type", "paper", "lo", "hi", "tol", "rel_tol", "unit"}
     if extra:
         out.append(f"{where}: unknown rule fields {sorted(extra)}")
     return out
@@ -538,27 +574,71 @@ def problems(path: Path) -> list[str]:
                                f"{sorted(keys - set(grid))}")
         elif isinstance(c.get("ours"), dict):
             out.append(f"{where}: 'ours' is a mapping but the claim names no readings")
-        # every glued reference resolves; quantitative ones carry an interval
+        # every reading of the chapter is named, open or not applicable, with a reason
+        declared = [r.get("name") for r in readings if isinstance(r, dict)]
+        open_ = c.get("open_readings") or {}
+        na = c.get("not_applicable") or {}
+        for field, m in (("open_readings", open_), ("not_applicable", na)):
+            if not isinstance(m, dict):
+                out.append(f"{where}: {field} must map a reading's name to why")
+                continue
+            for name, why in m.items():
+                if name not in declared:
+                    out.append(f"{where}: {field} names {name!r}, not a declared reading")
+                if not why or not isinstance(why, str):
+                    out.append(f"{where}: {field} {name!r} needs a one-line why")
+                if name in names:
+                    out.append(f"{where}: reading {name!r} is both run and in {field}")
+        if isinstance(open_, dict) and isinstance(na, dict):
+            for name in set(open_) & set(na):
+                out.append(f"{where}: reading {name!r} is both open and not applicable")
+            if kind == "quantitative" and c.get("rule") and not c.get("pending"):
+                for name in declared:
+                    if name not in names and name not in open_ and name not in na:
+                        out.append(f"{where}: reading {name!r} is not accounted for: name "
+                                   "it in readings, open_readings or not_applicable")
+        # every glued reference resolves; quantitative ones carry one interval, in the
+        # units the rule declares
         refs = []
         for field in ("ours", "verdict_key"):
             v = c.get(field)
             if isinstance(v, dict):
-                refs += [(field, r) for r in v.values()]
+                refs += [(field, r, c.get("rule")) for r in v.values()]
             elif v:
-                refs.append((field, v))
+                refs.append((field, v, c.get("rule")))
         if isinstance(c.get("rule"), dict):
             for p in c["rule"].get("all", []) or []:
                 v = p.get("ours") if isinstance(p, dict) else None
-                refs += [("ours", r) for r in (v.values() if isinstance(v, dict) else [v])
+                refs += [("ours", r, p) for r in (v.values() if isinstance(v, dict) else [v])
                          if r]
-        for field, ref in refs:
+        for field, ref, rule in refs:
+            if _is_pending(ref):
+                if not isinstance(ref["pending"], str) or not ref["pending"].strip():
+                    out.append(f"{where}: a pending cell needs its why")
+                continue
+            if isinstance(ref, dict):
+                out.append(f"{where}: a cell is a glued reference or {{pending: why}}")
+                continue
             try:
                 text = glue.text(ref)
             except ValueError as exc:
                 out.append(f"{where}: {field}: {exc}")
                 continue
-            if field == "ours" and c.get("rule") and not _ESTIMATE.search(text):
-                out.append(f"{where}: glued value {text!r} has no 'value [lo, hi]'")
+            if field == "ours" and c.get("rule"):
+                found = _ESTIMATE.findall(text)
+                if not found and NO_INTERVAL in text:
+                    continue
+                if not found:
+                    out.append(f"{where}: glued value {text!r} has no 'value [lo, hi]'")
+                elif len(found) > 1:
+                    out.append(f"{where}: glued value {text!r} holds more than one "
+                               "'value [lo, hi]': glue the one the rule decides on")
+                elif isinstance(rule, dict) and "all" not in rule:
+                    pct = bool(found[0][3])
+                    if pct != (rule.get("unit") == "%"):
+                        out.append(f"{where}: glued value {text!r} is "
+                                   f"{'in' if pct else 'not in'} percent but the rule "
+                                   f"{'lacks' if pct else 'declares'} unit: '%'")
         # the computed verdict, and agreement with any typed or notebook verdict
         if c.get("rule") and not c.get("pending") and \
                 not any(p.startswith(where) for p in out):
@@ -609,7 +689,7 @@ def problems(path: Path) -> list[str]:
 
 COUNT_COLUMNS = ("reproduced", "reproduced within tolerance", "undecided",
                  "depends on reading", "not reproduced", "not testable")
-ERRATA_COLUMNS = ("paper error", "source-text defect", "notation", "none")
+ERRATA_COLUMNS = ("paper error", "suspected", "source-text defect", "notation", "none")
 
 
 def final_verdict(entry: dict) -> str | None:
@@ -628,7 +708,8 @@ def counts(evaluated: dict | None = None) -> dict[str, dict]:
                                        "errata": Counter(), "n": 0})
             row["n"] += 1
             if e["claim"].get("kind") == "erratum":
-                row["errata"][e["claim"].get("class")] += 1
+                suspected = e["claim"].get("verdict") == "not testable"
+                row["errata"]["suspected" if suspected else e["claim"].get("class")] += 1
             else:
                 row["claims"][final_verdict(e)] += 1
     return out
@@ -640,9 +721,9 @@ def counts_markdown(chapter: str | None = None, evaluated: dict | None = None,
     table = counts(evaluated)
     keys = [chapter] if chapter else [k for k in sorted(table) if k != "all"] + ["all"]
     head = ("| paper | claims | reproduced | within tolerance | undecided | depends on reading "
-            "| not reproduced | not testable | errata: paper errors | source-text defects "
-            "| notation | printed forms confirmed |")
-    lines = [head, "|:--" + "|--:" * 11 + "|"]
+            "| not reproduced | not testable | errata: paper errors | suspected (print "
+            "unchecked) | source-text defects | notation | printed forms confirmed |")
+    lines = [head, "|:--" + "|--:" * 12 + "|"]
     for k in keys:
         row = table[k]
         name = row["title"]
@@ -679,8 +760,13 @@ def _verdict_cell(e: dict) -> str:
     if ev.get("cells", 0) > 1:
         names = ", ".join(ev["readings"])
         out += f" holds in {ev['holds']} of {ev['cells']} readings ({names})"
+        if ev.get("pending_cells"):
+            out += f", {ev['pending_cells']} still to run"
     elif ev.get("pending"):
         out += f" estimate pending: {_cell(ev['pending'])}"
+    if ev.get("open_readings"):
+        out += (f"; {VERDICTS[ev['run_verdict']][1]} on the readings run, "
+                f"still to run: {_cell(', '.join(ev['open_readings']))}")
     return out
 
 
@@ -703,7 +789,9 @@ def render() -> str:
             ref = c.get("ours")
             if isinstance(ref, dict):
                 ref = ref.get(default_label(data, c))
-            if ref:
+            if _is_pending(ref):
+                ours = f"still to run: {_cell(ref['pending'])}"
+            elif ref:
                 doc, key = _split_ref(ref)
                 ours = f"{{glue:text}}`{chapter}/{doc}.ipynb::{key}:s`"
             ev = c["evidence"]
