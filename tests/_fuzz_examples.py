@@ -1366,6 +1366,22 @@ def rmse_ratio():
 
 
 @example()
+def rmse_estimate_mse():
+    from trackcore.scenarios import window_mse
+
+    e = _houles_errors()
+    return call(window_mse(e), np.any(e > 200.0**2, axis=-1), 1, window="manoeuvring")
+
+
+@example()
+def rmse_ratio_mse():
+    from trackcore.scenarios import window_mse
+
+    e = _houles_errors()
+    return call(window_mse(e), np.any(e > 200.0**2, axis=-1), 1, 0, window="total")
+
+
+@example()
 def cv_model_set():
     return call(1.0, 2.0)
 

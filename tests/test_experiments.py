@@ -97,7 +97,7 @@ def test_houles_sweep_rows_equal_separate_runs():
         assert np.array_equal(res["target_gated"][:, g], d.target_gated), pg
     c = HoulesSweepConfig(("tom",))
     assert c.with_overrides({"gates": "0.9,0.99"}).gates == (0.9, 0.99)
-    with pytest.raises(ValueError, match="unknown filter spec"):
+    with pytest.raises(ValueError, match="unknown filter key"):
         HoulesSweepConfig(("kalman",))
     with pytest.raises(ValueError, match="parameters must be numbers"):
         HoulesSweepConfig(("car:x",))

@@ -255,8 +255,8 @@ class HoulesSweepConfig(_Config):
     def __post_init__(self):
         if not isinstance(self.filters, tuple) or not self.filters:
             raise TypeError(f"filters must be a non-empty tuple, got {self.filters!r}")
-        for spec in self.filters:
-            _houles_model_set(spec)  # raises on a bad spec
+        for key in self.filters:
+            _houles_model_set(key)  # raises on a bad key
         if not isinstance(self.gates, tuple) or not self.gates:
             raise TypeError(f"gates must be a non-empty tuple, got {self.gates!r}")
         for g in self.gates:
@@ -277,19 +277,19 @@ class HoulesSweepConfig(_Config):
 
 
 @functools.lru_cache(maxsize=64)
-def _houles_model_set(spec):
-    """The IMM model set named by a filter spec of :class:`HoulesSweepConfig`."""
+def _houles_model_set(key):
+    """The IMM model set named by a filter key of :class:`HoulesSweepConfig`."""
     from ..trackers import car_imm_model_set, singer_imm_model_set, tom_imm_model_set
 
-    if not isinstance(spec, str):
-        raise TypeError(f"a filter spec must be a str, got {spec!r}")
-    kind, *nums = spec.split(":")
+    if not isinstance(key, str):
+        raise TypeError(f"a filter key must be a str, got {key!r}")
+    kind, *nums = key.split(":")
     try:
         vals = [float(v) for v in nums]
     except ValueError:
-        raise ValueError(f"filter spec {spec!r}: parameters must be numbers") from None
+        raise ValueError(f"filter key {key!r}: parameters must be numbers") from None
     if not all(math.isfinite(v) and v > 0 for v in vals):
-        raise ValueError(f"filter spec {spec!r}: parameters must be finite and > 0")
+        raise ValueError(f"filter key {key!r}: parameters must be finite and > 0")
     if kind == "singer" and not vals:
         return singer_imm_model_set()
     if kind == "singer" and len(vals) == 2:
@@ -298,7 +298,7 @@ def _houles_model_set(spec):
         return car_imm_model_set(sigma_cv=vals[0])
     if kind == "tom" and not vals:
         return tom_imm_model_set()
-    raise ValueError(f"unknown filter spec {spec!r}; expected 'singer', 'singer:TAU:SIGMA_M', "
+    raise ValueError(f"unknown filter key {key!r}; expected 'singer', 'singer:TAU:SIGMA_M', "
                      f"'car:SIGMA_CV' or 'tom'")
 
 
