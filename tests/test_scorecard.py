@@ -254,6 +254,32 @@ def test_pending_cells_count_as_undecided(tmp_path):
     assert _eval(path)["verdict"] == "depends on reading"
 
 
+def test_a_single_cell_may_be_pending(tmp_path):
+    # the claim's one estimate not yet run at an accepted size: undecided
+    path = _registry(tmp_path, [_claim(ours={"pending": "20 runs, fewer than 40"})])
+    assert scorecard.problems(path) == []
+    assert _eval(path)["verdict"] == "undecided"
+    # an `all` rule: a failing part decides whatever the pending part would give
+    rule = {"all": [{"type": "direction", "expect": "below", "ref": 0, "ours": "nb::up"},
+                    {"type": "direction", "expect": "below", "ref": 0,
+                     "ours": {"pending": "not run"}}]}
+    path.write_text(yaml.safe_dump({**scorecard.load(path),
+                                    "claims": [_claim(ours=None, rule=rule)]}),
+                    encoding="utf-8")
+    assert scorecard.problems(path) == []
+    assert _eval(path)["verdict"] == "not reproduced"
+
+
+def test_depends_on_reading_is_not_capped_by_open_readings(tmp_path):
+    ours = {"0.98": "nb::d98", "0.99": "nb::up", "0.995": "nb::d995"}
+    readings = PI + [{"name": "rho", "parameter": "snr", "default": "10", "why": "w",
+                      "values": [{"value": "10", "why": "a"}, {"value": "3", "why": "b"}]}]
+    path = _registry(tmp_path, [_claim(readings=["pi"], ours=ours,
+                                       open_readings={"rho": "not run"})], readings=readings)
+    assert scorecard.problems(path) == []
+    assert _eval(path)["verdict"] == "depends on reading"
+
+
 @pytest.mark.parametrize("ref, run", [("nb::d98", "reproduced"), ("nb::up", "not reproduced")])
 def test_open_readings_cap_a_verdict_at_undecided(tmp_path, ref, run):
     path = _registry(tmp_path, [_claim(ours=ref, open_readings={"pi": "prior not run"})],

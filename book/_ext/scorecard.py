@@ -33,7 +33,9 @@ Each chapter keeps ``book/<chapter>/claims.yml``::
 A claim evaluated across readings names them (``readings: [pi11]``) and gives ``ours`` as a
 mapping from each reading value (several readings: the values joined by ``", "`` in the order
 named) to a glued reference; every cell of the grid must be present, either as a reference or
-as ``{pending: why}`` (a cell not yet run, which counts as undecided).  Every reading of the
+as ``{pending: why}`` (a cell not yet run, or run at a size this book does not accept, which
+counts as undecided; a claim or an ``all`` part without readings may give its one ``ours``
+that way too).  Every reading of the
 chapter is accounted for by every quantitative claim with a rule: named in ``readings``,
 listed in ``open_readings: {name: why}`` (it applies and has not been run: the verdict is at
 most *undecided*, whatever the run cells say), or in ``not_applicable: {name: why}``.
@@ -291,7 +293,7 @@ def default_label(data: dict, claim: dict) -> str:
 
 
 def _ref_for(ours, label: str):
-    if isinstance(ours, dict):
+    if isinstance(ours, dict) and not _is_pending(ours):
         return ours.get(label)
     return ours
 
@@ -572,7 +574,7 @@ def problems(path: Path) -> list[str]:
                     out.append(f"{where}: 'ours' must cover the readings grid exactly: "
                                f"missing {sorted(set(grid) - keys)}, extra "
                                f"{sorted(keys - set(grid))}")
-        elif isinstance(c.get("ours"), dict):
+        elif isinstance(c.get("ours"), dict) and not _is_pending(c["ours"]):
             out.append(f"{where}: 'ours' is a mapping but the claim names no readings")
         # every reading of the chapter is named, open or not applicable, with a reason
         declared = [r.get("name") for r in readings if isinstance(r, dict)]
@@ -602,15 +604,15 @@ def problems(path: Path) -> list[str]:
         refs = []
         for field in ("ours", "verdict_key"):
             v = c.get(field)
-            if isinstance(v, dict):
+            if isinstance(v, dict) and not _is_pending(v):
                 refs += [(field, r, c.get("rule")) for r in v.values()]
             elif v:
                 refs.append((field, v, c.get("rule")))
         if isinstance(c.get("rule"), dict):
             for p in c["rule"].get("all", []) or []:
                 v = p.get("ours") if isinstance(p, dict) else None
-                refs += [("ours", r, p) for r in (v.values() if isinstance(v, dict) else [v])
-                         if r]
+                many = isinstance(v, dict) and not _is_pending(v)
+                refs += [("ours", r, p) for r in (v.values() if many else [v]) if r]
         for field, ref, rule in refs:
             if _is_pending(ref):
                 if not isinstance(ref["pending"], str) or not ref["pending"].strip():
