@@ -111,8 +111,9 @@ class FjpdaCrossingConfig(_Config):
 
     def scene(self) -> dict:
         """Keyword arguments of :func:`~trackcore.scenarios.feature_metrics.crossing_trial`."""
-        return dict(heading_b=math.radians(self.heading_b_deg), pd=self.pd,
-                    n_frames=self.n_frames, conflict=self.conflict, min_sep=self.min_sep)
+        return {"heading_b": math.radians(self.heading_b_deg), "pd": self.pd,
+                "n_frames": self.n_frames, "conflict": self.conflict,
+                "min_sep": self.min_sep}
 
 
 def _call(config):
