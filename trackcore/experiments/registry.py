@@ -369,4 +369,7 @@ for _name, _desc, _config, _seed, _runs in (
     register(Experiment(name=_name, description=_desc, trial=houles_sweep_trial,
                         call=_sweep_call, extract=_sweep_extract, config=_config, seed=_seed,
                         runs=_runs, version="1", notebook=_NB))
+
+# the chapters' other registered experiments, one module each
 from . import fjpda_extensions  # noqa: E402,F401  (feature-JPDA extensions, 004-07)
+from . import tbd_tracking  # noqa: E402,F401  (the TBD chapter's tracking experiments)
