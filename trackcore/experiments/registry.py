@@ -373,3 +373,4 @@ for _name, _desc, _config, _seed, _runs in (
 # the chapters' other registered experiments, one module each
 from . import fjpda_extensions  # noqa: E402,F401  (feature-JPDA extensions, 004-07)
 from . import tbd_tracking  # noqa: E402,F401  (the TBD chapter's tracking experiments)
+from . import tom_cause  # noqa: E402,F401  (001-05: registers tom-cause-*)
