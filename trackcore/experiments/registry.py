@@ -374,3 +374,4 @@ for _name, _desc, _config, _seed, _runs in (
 from . import fjpda_extensions  # noqa: E402,F401  (feature-JPDA extensions, 004-07)
 from . import tbd_tracking  # noqa: E402,F401  (the TBD chapter's tracking experiments)
 from . import tom_cause  # noqa: E402,F401  (001-05: registers tom-cause-*)
+from . import hpda_extensions  # noqa: E402,F401  (000-hpda/07's experiments)

@@ -1,0 +1,253 @@
+"""The HPDA chapter's extensions (book/000-hpda/07-extensions.ipynb) as experiments.
+
+Every experiment reruns :func:`~trackcore.scenarios.run_hpda_trial` with the master
+seeds of the chapter's Monte Carlo comparison (case ``c``: ``HPDA_SEED + c``), so run
+``i`` sees the scans of run ``i`` of ``hpda-mc-case<c>``:
+
+* ``hpda-ext-prior-case1/2``: HPDA's ``pi11`` and SMC-PHD's ``p_survival`` swept
+  together (:class:`HpdaPriorSweepConfig`);
+* ``hpda-ext-ladder-case1/2``: the clustering hybrid's printed reading with the
+  strong reading's changes added one at a time (:class:`HpdaLadderConfig`);
+* ``hpda-ext-factor-pd`` / ``-clutter``: case 1 with only ``P_D`` lowered or only
+  the clutter raised (:class:`~trackcore.experiments.HpdaMonteCarloConfig`);
+* ``hpda-ext-snr-linear`` / ``-db``: case 2's HPDA-PF with SNR 5 read as linear and
+  as 5 dB (:class:`~trackcore.experiments.HpdaMonteCarloConfig`).
+
+A row holds the estimated count per scan (int16) of every tracker and variant: the
+only per-run quantity the page's tables and verdicts use.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from ..scenarios.hpda_scenario import run_hpda_trial
+from ._core import Experiment, register
+from .registry import HPDA_SEED, HpdaMonteCarloConfig
+
+__all__ = ["HpdaLadderConfig", "HpdaPriorSweepConfig"]
+
+_NB = "book/000-hpda/07-extensions.ipynb"
+
+#: The clustering hybrid's readings, each adding one change of the strong reading to
+#: the printed (literal) one: tracker-config overrides of ``clustering_literal``.
+LADDER_READINGS = {
+    "literal": {},
+    "chi2_gate": {"link_d2": 9.2103},
+    "motion": {"link_d2": 9.2103, "link_motion_std": 1.5},
+    "every_scan": {"link_d2": 9.2103, "link_motion_std": 1.5, "seed_every_scan": True},
+    "gated_support": {
+        "link_d2": 9.2103,
+        "link_motion_std": 1.5,
+        "seed_every_scan": True,
+        "gated_support": True,
+    },
+}
+
+
+def _check_algorithms(config, allowed):
+    bad = [a for a in config.algorithms if a not in allowed]
+    if bad:
+        raise ValueError(
+            f"algorithms of {type(config).__name__} must be some of {allowed}, "
+            f"got {bad}"
+        )
+
+
+@dataclass(frozen=True)
+class HpdaPriorSweepConfig(HpdaMonteCarloConfig):
+    """The death prior swept: for every value ``v`` in ``priors``, HPDA's ``pi11`` and
+    SMC-PHD's ``p_survival`` both set to ``v`` and ``algorithms`` (some of ``hpda``,
+    ``phd``) run on the same scans; the other fields as in
+    :class:`~trackcore.experiments.HpdaMonteCarloConfig`."""
+
+    algorithms: tuple = ("hpda", "phd")
+    priors: tuple = (0.98, 0.99, 0.995)
+
+    _KINDS: ClassVar[dict] = {**HpdaMonteCarloConfig._KINDS, "priors": "floats"}
+
+    def __post_init__(self):
+        super().__post_init__()
+        _check_algorithms(self, ("hpda", "phd"))
+        if not isinstance(self.priors, tuple) or not self.priors:
+            raise TypeError(f"priors must be a non-empty tuple, got {self.priors!r}")
+        for v in self.priors:
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < 1:
+                raise ValueError(f"every prior must be a number in (0, 1), got {v!r}")
+        if len(set(self.priors)) != len(self.priors):
+            raise ValueError(f"priors must not repeat, got {self.priors}")
+
+    def variants(self):
+        return tuple(
+            {"hpda": {"pi11": v}, "phd": {"p_survival": v}} for v in self.priors
+        )
+
+
+@dataclass(frozen=True)
+class HpdaLadderConfig(HpdaMonteCarloConfig):
+    """The clustering hybrid's printed reading (``clustering_literal``) with the strong
+    reading's changes added one at a time: ``readings`` are keys of
+    :data:`LADDER_READINGS`, all run on the same scans; the other fields as in
+    :class:`~trackcore.experiments.HpdaMonteCarloConfig`."""
+
+    algorithms: tuple = ("clustering_literal",)
+    readings: tuple = tuple(LADDER_READINGS)
+
+    _KINDS: ClassVar[dict] = {**HpdaMonteCarloConfig._KINDS, "readings": tuple}
+
+    def __post_init__(self):
+        super().__post_init__()
+        _check_algorithms(self, ("clustering_literal",))
+        if not isinstance(self.readings, tuple) or not self.readings:
+            raise TypeError(
+                f"readings must be a non-empty tuple, got {self.readings!r}"
+            )
+        for r in self.readings:
+            if r not in LADDER_READINGS:
+                raise ValueError(
+                    f"unknown reading {r!r} in readings; expected some of "
+                    f"{tuple(LADDER_READINGS)}"
+                )
+        if len(set(self.readings)) != len(self.readings):
+            raise ValueError(f"readings must not repeat, got {self.readings}")
+
+    def variants(self):
+        return tuple({"clustering_literal": LADDER_READINGS[r]} for r in self.readings)
+
+
+def _fresh(rng):
+    """A generator equal to ``rng`` as ``montecarlo.run`` hands it to a trial: from a
+    copy of its seed sequence, so that its ``spawn`` starts again at the first child."""
+    ss = rng.bit_generator.seed_seq
+    return np.random.default_rng(
+        np.random.SeedSequence(
+            ss.entropy, spawn_key=ss.spawn_key, pool_size=ss.pool_size
+        )
+    )
+
+
+def _variants_trial(rng, case, algorithms, variants, scenario_overrides=None):
+    """:func:`run_hpda_trial` once per tracker-override dict in ``variants``, each from
+    a fresh copy of run ``i``'s generator (so on the same scans and particle streams
+    as separate ``montecarlo.run`` calls with the same seed); returns the results."""
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(f"rng must be a numpy Generator, got {type(rng).__name__}")
+    return [
+        run_hpda_trial(
+            _fresh(rng),
+            case,
+            algorithms,
+            overrides=ov,
+            scenario_overrides=scenario_overrides,
+        )
+        for ov in variants
+    ]
+
+
+def _int16(count, what):
+    count = np.asarray(count)
+    small = count.astype(np.int16)
+    if not np.array_equal(small, count):
+        raise ValueError(f"{what}: a count does not fit in int16")
+    return small
+
+
+def _variants_call(config):
+    return (config.case, config.algorithms, config.variants()), {
+        "scenario_overrides": config.scenario() or None
+    }
+
+
+def _variants_extract(outs, config):
+    """Per tracker: the count per variant and scan, ``(variants, scans)`` int16."""
+    return {
+        f"{a}.count": np.stack([_int16(o[a]["count"], a) for o in outs])
+        for a in config.algorithms
+    }
+
+
+def _counts_call(config):
+    return (config.case, config.algorithms), {
+        "scenario_overrides": config.scenario() or None
+    }
+
+
+def _counts_extract(out, config):
+    """Per tracker: the count per scan (int16)."""
+    return {f"{a}.count": _int16(out[a]["count"], a) for a in config.algorithms}
+
+
+for _case in (1, 2):
+    register(
+        Experiment(
+            name=f"hpda-ext-prior-case{_case}",
+            description="HPDA chapter, the death prior: HPDA's Pi_11 and SMC-PHD's "
+            f"P_S swept together over 0.98, 0.99, 0.995 in case {_case} "
+            "(counts per scan)",
+            trial=_variants_trial,
+            call=_variants_call,
+            extract=_variants_extract,
+            config=HpdaPriorSweepConfig(_case),
+            seed=HPDA_SEED + _case,
+            runs=30,
+            version="1",
+            notebook=_NB,
+        )
+    )
+for _case in (1, 2):
+    register(
+        Experiment(
+            name=f"hpda-ext-ladder-case{_case}",
+            description="HPDA chapter, the clustering hybrid one change at a time: "
+            f"the printed reading and four steps to the strong one in case {_case}",
+            trial=_variants_trial,
+            call=_variants_call,
+            extract=_variants_extract,
+            config=HpdaLadderConfig(_case),
+            seed=HPDA_SEED + _case,
+            runs=20,
+            version="1",
+            notebook=_NB,
+        )
+    )
+for _name, _what, _over in (
+    ("pd", "only P_D lowered to 0.6", {"pd": 0.6}),
+    ("clutter", "only the clutter raised to lambda V = 50", {"clutter_mean": 50.0}),
+):
+    register(
+        Experiment(
+            name=f"hpda-ext-factor-{_name}",
+            description=f"HPDA chapter, the attribution of Fig. 9: case 1 with {_what} "
+            f"(HPDA-PF, SMC-PHD, clustering strong; counts per scan)",
+            trial=run_hpda_trial,
+            call=_counts_call,
+            extract=_counts_extract,
+            config=HpdaMonteCarloConfig(1, ("hpda", "phd", "clustering"), **_over),
+            seed=HPDA_SEED + 1,
+            runs=30,
+            version="1",
+            notebook=_NB,
+        )
+    )
+for _name, _what, _snr in (
+    ("linear", "SNR 5 read as linear (the book's reading)", 5.0),
+    ("db", "SNR 5 read as 5 dB (rho = 3.16)", 10**0.5),
+):
+    register(
+        Experiment(
+            name=f"hpda-ext-snr-{_name}",
+            description=f"HPDA chapter, case 2's HPDA-PF with {_what} "
+            "(counts per scan)",
+            trial=run_hpda_trial,
+            call=_counts_call,
+            extract=_counts_extract,
+            config=HpdaMonteCarloConfig(2, ("hpda",), snr=_snr),
+            seed=HPDA_SEED + 2,
+            runs=20,
+            version="1",
+            notebook=_NB,
+        )
+    )
