@@ -22,23 +22,29 @@ from ..scenarios.feature_metrics import scene_trial
 from ._core import Experiment, register
 from .registry import _Config
 
-__all__ = ["ABLATIONS", "BASE", "CROSSING_CODES", "EXPERIMENTS", "FjpdaSceneConfig",
-           "FJPDA_SCENE_FIELDS"]
+__all__ = [
+    "ABLATIONS",
+    "BASE",
+    "CROSSING_CODES",
+    "EXPERIMENTS",
+    "FJPDA_SCENE_FIELDS",
+    "FjpdaSceneConfig",
+]
 
 #: The notebook's ablations: key -> {variant label: (base tracker, config keywords)}.
 ABLATIONS = {
-    "tsi": {"FJPDA, TSI from unvalidated": ("FJPDA", dict(tsi_from="unvalidated"))},
-    "rho": {"FJPDA, normalised ρ": ("FJPDA", dict(rho_weight="normalised"))},
-    "guard": {"FJPDA, no drift guard": ("FJPDA", dict(template_guard=False))},
+    "tsi": {"FJPDA, TSI from unvalidated": ("FJPDA", {"tsi_from": "unvalidated"})},
+    "rho": {"FJPDA, normalised ρ": ("FJPDA", {"rho_weight": "normalised"})},
+    "guard": {"FJPDA, no drift guard": ("FJPDA", {"template_guard": False})},
     "memory": {
-        "JPDA, memory 1": ("JPDA", dict(memory_frames=1)),
-        "FJPDA, memory 1": ("FJPDA", dict(memory_frames=1)),
-        "JPDA, memory 6": ("JPDA", dict(memory_frames=6)),
-        "FJPDA, memory 6": ("FJPDA", dict(memory_frames=6)),
+        "JPDA, memory 1": ("JPDA", {"memory_frames": 1}),
+        "FJPDA, memory 1": ("FJPDA", {"memory_frames": 1}),
+        "JPDA, memory 6": ("JPDA", {"memory_frames": 6}),
+        "FJPDA, memory 6": ("FJPDA", {"memory_frames": 6}),
     },
     "dup": {
-        "JPDA, no duplicate deletion": ("JPDA", dict(duplicate_deletion=False)),
-        "FJPDA, no duplicate deletion": ("FJPDA", dict(duplicate_deletion=False)),
+        "JPDA, no duplicate deletion": ("JPDA", {"duplicate_deletion": False}),
+        "FJPDA, no duplicate deletion": ("FJPDA", {"duplicate_deletion": False}),
     },
 }
 #: The trackers of every scene (FJPDA-gate only with the ``gate`` ablation).
@@ -79,7 +85,7 @@ class FjpdaSceneConfig(_Config):
     jitter: float
     ablations: tuple = ()
 
-    _KINDS = {"scene": str, "jitter": float, "ablations": tuple}
+    _KINDS = {"scene": str, "jitter": float, "ablations": tuple}  # noqa: RUF012
 
     def with_overrides(self, overrides):
         if not isinstance(overrides, dict):

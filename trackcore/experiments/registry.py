@@ -369,4 +369,4 @@ for _name, _desc, _config, _seed, _runs in (
     register(Experiment(name=_name, description=_desc, trial=houles_sweep_trial,
                         call=_sweep_call, extract=_sweep_extract, config=_config, seed=_seed,
                         runs=_runs, version="1", notebook=_NB))
-from . import fjpda_scenes  # noqa: E402,F401  (feature-JPDA scene results, 004-05)
+from . import fjpda_scenes  # noqa: F401  (feature-JPDA scene results, 004-05)
