@@ -376,3 +376,4 @@ from . import tbd_tracking  # noqa: E402,F401  (the TBD chapter's tracking exper
 from . import tom_cause  # noqa: E402,F401  (001-05: registers tom-cause-*)
 from . import hpda_extensions  # noqa: E402,F401  (000-hpda/07's experiments)
 from . import tbd_extensions  # noqa: E402,F401  (TBD chapter, extensions page)
+from . import fjpda_scenes  # noqa: E402,F401  (feature-JPDA scene results, 004-05)
