@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scenarios.feature_metrics import crossing_trial
+from ._checks import check_finite, check_names
 from ._core import Experiment, register
 from .registry import _Config
 
@@ -27,10 +28,7 @@ CROSSING_OUTCOMES = ("kept", "swap", "break", "")
 CROSSING_TRACKERS = ("JPDA", "FJPDA", "FJPDA-LR", "JPDA, duplicate rule")
 
 
-def _finite(value, name):
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) \
-            or not math.isfinite(value):
-        raise ValueError(f"{name} must be a finite number, got {value!r}")
+_finite = check_finite
 
 
 @dataclass(frozen=True)
@@ -74,14 +72,7 @@ class FjpdaCrossingConfig(_Config):
             raise ValueError(f"n_frames must be in [3, 10000], got {self.n_frames}")
         if not 0 <= self.conflict < self.n_frames:
             raise ValueError(f"conflict must be in [0, n_frames), got {self.conflict}")
-        if not isinstance(self.trackers, tuple) or not self.trackers:
-            raise TypeError(f"trackers must be a non-empty tuple, got {self.trackers!r}")
-        for t in self.trackers:
-            if t not in CROSSING_TRACKERS:
-                raise ValueError(f"unknown tracker {t!r} in trackers; expected some of "
-                                 f"{CROSSING_TRACKERS}")
-        if len(set(self.trackers)) != len(self.trackers):
-            raise ValueError(f"trackers must not repeat, got {self.trackers}")
+        check_names(self.trackers, "trackers", CROSSING_TRACKERS, "tracker")
         if not isinstance(self.feature_lr, tuple):
             raise TypeError(f"feature_lr must be a tuple, got {self.feature_lr!r}")
         if "FJPDA-LR" in self.trackers and len(self.feature_lr) != 4:

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scenarios.feature_metrics import scene_trial
+from ._checks import check_names
 from ._core import Experiment, register
 from .registry import _Config
 
@@ -103,14 +104,7 @@ class FjpdaSceneConfig(_Config):
         if isinstance(j, bool) or not isinstance(j, (int, float, np.floating)) \
                 or not math.isfinite(j) or j < 0:
             raise ValueError(f"jitter must be a finite number >= 0 (px), got {j!r}")
-        if not isinstance(self.ablations, tuple):
-            raise TypeError(f"ablations must be a tuple, got {self.ablations!r}")
-        for a in self.ablations:
-            if a not in _ABLATION_KEYS:
-                raise ValueError(f"unknown ablation {a!r} in ablations; expected some of "
-                                 f"{_ABLATION_KEYS}")
-        if len(set(self.ablations)) != len(self.ablations):
-            raise ValueError(f"ablations must not repeat, got {self.ablations}")
+        check_names(self.ablations, "ablations", _ABLATION_KEYS, "ablation", empty=True)
 
     def variants(self) -> dict:
         """The tracker configurations, label -> JPDATrackerConfig, in the notebook's

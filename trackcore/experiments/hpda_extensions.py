@@ -25,6 +25,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..scenarios.hpda_scenario import run_hpda_trial
+from ._checks import check_names
 from ._core import Experiment, register
 from .registry import HPDA_SEED, HpdaMonteCarloConfig
 
@@ -72,13 +73,10 @@ class HpdaPriorSweepConfig(HpdaMonteCarloConfig):
     def __post_init__(self):
         super().__post_init__()
         _check_algorithms(self, ("hpda", "phd"))
-        if not isinstance(self.priors, tuple) or not self.priors:
-            raise TypeError(f"priors must be a non-empty tuple, got {self.priors!r}")
+        check_names(self.priors, "priors")
         for v in self.priors:
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < 1:
                 raise ValueError(f"every prior must be a number in (0, 1), got {v!r}")
-        if len(set(self.priors)) != len(self.priors):
-            raise ValueError(f"priors must not repeat, got {self.priors}")
 
     def variants(self):
         return tuple(
@@ -101,18 +99,7 @@ class HpdaLadderConfig(HpdaMonteCarloConfig):
     def __post_init__(self):
         super().__post_init__()
         _check_algorithms(self, ("clustering_literal",))
-        if not isinstance(self.readings, tuple) or not self.readings:
-            raise TypeError(
-                f"readings must be a non-empty tuple, got {self.readings!r}"
-            )
-        for r in self.readings:
-            if r not in LADDER_READINGS:
-                raise ValueError(
-                    f"unknown reading {r!r} in readings; expected some of "
-                    f"{tuple(LADDER_READINGS)}"
-                )
-        if len(set(self.readings)) != len(self.readings):
-            raise ValueError(f"readings must not repeat, got {self.readings}")
+        check_names(self.readings, "readings", LADDER_READINGS, "reading")
 
     def variants(self):
         return tuple({"clustering_literal": LADDER_READINGS[r]} for r in self.readings)
@@ -180,39 +167,29 @@ def _counts_extract(out, config):
     return {f"{a}.count": _int16(out[a]["count"], a) for a in config.algorithms}
 
 
-for _case in (1, 2):
-    register(
-        Experiment(
-            name=f"hpda-ext-prior-case{_case}",
-            description="HPDA chapter, the death prior: HPDA's Pi_11 and SMC-PHD's "
-            f"P_S swept together over 0.98, 0.99, 0.995 in case {_case} "
-            "(counts per scan)",
-            trial=_variants_trial,
-            call=_variants_call,
-            extract=_variants_extract,
-            config=HpdaPriorSweepConfig(_case),
-            seed=HPDA_SEED + _case,
-            runs=30,
-            version="1",
-            notebook=_NB,
+for _kind, _cls, _runs, _what in (
+    ("prior", HpdaPriorSweepConfig, 30,
+     "the death prior: HPDA's Pi_11 and SMC-PHD's P_S swept together over 0.98, 0.99, "
+     "0.995"),
+    ("ladder", HpdaLadderConfig, 20,
+     "the clustering hybrid one change at a time: the printed reading and four steps to "
+     "the strong one"),
+):
+    for _case in (1, 2):
+        register(
+            Experiment(
+                name=f"hpda-ext-{_kind}-case{_case}",
+                description=f"HPDA chapter, {_what} in case {_case} (counts per scan)",
+                trial=_variants_trial,
+                call=_variants_call,
+                extract=_variants_extract,
+                config=_cls(_case),
+                seed=HPDA_SEED + _case,
+                runs=_runs,
+                version="1",
+                notebook=_NB,
+            )
         )
-    )
-for _case in (1, 2):
-    register(
-        Experiment(
-            name=f"hpda-ext-ladder-case{_case}",
-            description="HPDA chapter, the clustering hybrid one change at a time: "
-            f"the printed reading and four steps to the strong one in case {_case}",
-            trial=_variants_trial,
-            call=_variants_call,
-            extract=_variants_extract,
-            config=HpdaLadderConfig(_case),
-            seed=HPDA_SEED + _case,
-            runs=20,
-            version="1",
-            notebook=_NB,
-        )
-    )
 for _name, _what, _over in (
     ("pd", "only P_D lowered to 0.6", {"pd": 0.6}),
     ("clutter", "only the clutter raised to lambda V = 50", {"clutter_mean": 50.0}),

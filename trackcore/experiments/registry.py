@@ -21,6 +21,7 @@ from ..scenarios.hpda_scenario import (
     hpda_parameters,
     run_hpda_trial,
 )
+from ._checks import check_finite, check_names
 from ._core import Experiment, register
 
 __all__ = ["HoulesConfig", "HoulesSweepConfig", "HpdaMonteCarloConfig", "houles_sweep_trial"]
@@ -106,14 +107,7 @@ class HpdaMonteCarloConfig(_Config):
         if isinstance(self.case, bool) or not isinstance(self.case, (int, np.integer)) \
                 or self.case not in (1, 2, 3):
             raise ValueError(f"case must be 1, 2 or 3, got {self.case!r}")
-        if not isinstance(self.algorithms, tuple) or not self.algorithms:
-            raise TypeError(f"algorithms must be a non-empty tuple, got {self.algorithms!r}")
-        for a in self.algorithms:
-            if a not in HPDA_ALGORITHMS:
-                raise ValueError(f"unknown algorithm {a!r} in algorithms; expected some of "
-                                 f"{HPDA_ALGORITHMS}")
-        if len(set(self.algorithms)) != len(self.algorithms):
-            raise ValueError(f"algorithms must not repeat, got {self.algorithms}")
+        check_names(self.algorithms, "algorithms", HPDA_ALGORITHMS, "algorithm")
         self.parameters()  # HpdaParameters validates the overrides
 
     def scenario(self) -> dict:
@@ -188,10 +182,7 @@ class HoulesConfig(_Config):
 
     def __post_init__(self):
         for name in self._KINDS:
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating)) \
-                    or not math.isfinite(v):
-                raise ValueError(f"{name} must be a finite number, got {v!r}")
+            check_finite(getattr(self, name), name)
         if self.car_sigma_cv <= 0:
             raise ValueError(f"car_sigma_cv must be > 0, got {self.car_sigma_cv}")
         if not 0 < self.pg < 1:
@@ -265,9 +256,7 @@ class HoulesSweepConfig(_Config):
         if len(set(self.gates)) != len(self.gates):
             raise ValueError(f"gates must not repeat, got {self.gates}")
         for name in ("clutter_density", "pd"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"{name} must be a finite number, got {v!r}")
+            check_finite(getattr(self, name), name)
         if self.clutter_density < 0:
             raise ValueError(f"clutter_density must be >= 0, got {self.clutter_density}")
         if not 0 < self.pd <= 1:
@@ -371,9 +360,11 @@ for _name, _desc, _config, _seed, _runs in (
                         runs=_runs, version="1", notebook=_NB))
 
 # the chapters' other registered experiments, one module each
-from . import fjpda_extensions  # noqa: E402,F401  (feature-JPDA extensions, 004-07)
-from . import tbd_tracking  # noqa: E402,F401  (the TBD chapter's tracking experiments)
-from . import tom_cause  # noqa: E402,F401  (001-05: registers tom-cause-*)
-from . import hpda_extensions  # noqa: E402,F401  (000-hpda/07's experiments)
-from . import tbd_extensions  # noqa: E402,F401  (TBD chapter, extensions page)
-from . import fjpda_scenes  # noqa: E402,F401  (feature-JPDA scene results, 004-05)
+from . import (
+    fjpda_extensions,  # noqa: E402,F401  (feature-JPDA extensions, 004-07)
+    fjpda_scenes,  # noqa: E402,F401  (feature-JPDA scene results, 004-05)
+    hpda_extensions,  # noqa: E402,F401  (000-hpda/07's experiments)
+    tbd_extensions,  # noqa: E402,F401  (TBD chapter, extensions page)
+    tbd_tracking,  # noqa: E402,F401  (the TBD chapter's tracking experiments)
+    tom_cause,  # noqa: E402,F401  (001-05: registers tom-cause-*)
+)

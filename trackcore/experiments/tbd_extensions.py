@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,6 +32,7 @@ from ..trackers import (
     intensity_tracker_config,
     tbd_run_outcomes,
 )
+from ._checks import check_finite
 from ._core import Experiment, register
 from .registry import _Config
 
@@ -86,10 +86,7 @@ class TbdExtensionsConfig(_Config):
                              f"got {self.fluctuation!r}")
         for name in ("processing_radius", "clutter_density", "pseudo_sigma",
                      "map_threshold"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating)) \
-                    or not math.isfinite(v):
-                raise ValueError(f"{name} must be a finite number, got {v!r}")
+            check_finite(getattr(self, name), name)
         if self.processing_radius <= 0:
             raise ValueError(f"processing_radius must be > 0, got {self.processing_radius}")
         if self.clutter_density < 0:

@@ -8,11 +8,11 @@ pseudo-measurement noise.  Every experiment is named ``tbd-tracking-*``; the
 from __future__ import annotations
 
 import functools
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from ._checks import check_finite, check_names
 from ._core import Experiment, register
 from .registry import _Config
 
@@ -26,10 +26,7 @@ _RADII = {2500.0: "25", 1000.0: "10"}
 
 def _check_scenario(config):
     for name in ("processing_radius", "snr0_db", "clutter_density"):
-        v = getattr(config, name)
-        if isinstance(v, bool) or not isinstance(v, (int, float, np.floating)) \
-                or not math.isfinite(v):
-            raise ValueError(f"{name} must be a finite number, got {v!r}")
+        check_finite(getattr(config, name), name)
     if config.processing_radius <= 0:
         raise ValueError(f"processing_radius must be > 0, got {config.processing_radius}")
     if config.clutter_density < 0:
@@ -84,10 +81,7 @@ class TbdTrackingConfig(_Config):
               "snr0_db": float, "clutter_density": float}
 
     def __post_init__(self):
-        if not isinstance(self.trackers, tuple) or not self.trackers:
-            raise TypeError(f"trackers must be a non-empty tuple, got {self.trackers!r}")
-        if len(set(self.trackers)) != len(self.trackers):
-            raise ValueError(f"trackers must not repeat, got {self.trackers}")
+        check_names(self.trackers, "trackers")
         _check_scenario(self)
         for key in self.trackers:
             _tracker(key, self.processing_radius)  # raises on a bad key or radius

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scenarios.houles import HOULES_TIMES, houles_imm_trial, window_mse
+from ._checks import check_finite, check_names
 from ._core import Experiment, register
 from .registry import _Config
 
@@ -36,10 +37,7 @@ _TOM_KEYS = {"heading": str, "reset_vs_variance": bool, "rotate_covariance": boo
 
 def _finite(config, names):
     for name in names:
-        v = getattr(config, name)
-        if isinstance(v, bool) or not isinstance(v, (int, float, np.floating)) \
-                or not math.isfinite(v):
-            raise ValueError(f"{name} must be a finite number, got {v!r}")
+        check_finite(getattr(config, name), name)
 
 
 @functools.lru_cache(maxsize=64)
@@ -92,8 +90,7 @@ class TomVariantsConfig(_Config):
     _KINDS = {"filters": tuple, "pg": float, "clutter_density": float, "pd": float}
 
     def __post_init__(self):
-        if not isinstance(self.filters, tuple) or not self.filters:
-            raise TypeError(f"filters must be a non-empty tuple, got {self.filters!r}")
+        check_names(self.filters, "filters", item="filter")
         for key in self.filters:
             _tom_variant(key)  # raises on a bad key
         _finite(self, ("pg", "clutter_density", "pd"))
