@@ -58,6 +58,7 @@ from ._core import (
     config_hash,
     get,
     load,
+    matches,
     names,
     obtain,
     read_metadata,
@@ -74,7 +75,7 @@ from .registry import HoulesConfig, HoulesSweepConfig, HpdaMonteCarloConfig
 __all__ = [
     "FLOAT_RTOL", "Experiment", "HoulesConfig", "HoulesSweepConfig", "HpdaMonteCarloConfig", "MissingResultsError",
     "Results", "StaleResultsError", "Verification", "VerificationError", "check_store",
-    "code_version", "compare_rows", "compute_rows", "config_hash", "get", "load", "names",
+    "code_version", "compare_rows", "compute_rows", "config_hash", "get", "load", "matches", "names",
     "obtain", "read_metadata", "register", "results_dir", "run_experiment", "sample_size",
     "status", "verify_sample", "write_store",
 ]
