@@ -89,7 +89,35 @@ def _cmd_run(args):
     return 0
 
 
+def _verify_emulated(argv):
+    """``verify --emulate-cpu``: the same command in a child process with the emulated
+    CPU's environment (:mod:`trackcore.experiments.cpu`) and a fresh, empty numba cache;
+    its exit code."""
+    import shutil
+    import subprocess
+    import tempfile
+
+    from .cpu import emulated_env
+
+    cache = tempfile.mkdtemp(prefix="trackcore-numba-")
+    try:
+        return subprocess.run([sys.executable, "-m", "trackcore.experiments", *argv],
+                              env=emulated_env(cache)).returncode
+    finally:
+        shutil.rmtree(cache, ignore_errors=True)
+
+
 def _cmd_verify(args):
+    if args.emulate_cpu:
+        from .cpu import MARKER, check_emulation
+
+        if os.environ.get(MARKER) != "1":
+            return _verify_emulated(args.argv)
+        try:
+            print(check_emulation(), flush=True)
+        except RuntimeError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 1
     targets = args.names or [n for n in names() if get(n).default_path().exists()]
     if not targets:
         print("no stored results to verify")
@@ -152,9 +180,15 @@ def main(argv=None):
     v.add_argument("--path", help="verify this store file instead of the book's")
     v.add_argument("--set", action="append", metavar="key=value",
                    help="with --path: the config overrides the file was made with")
+    v.add_argument("--emulate-cpu", action="store_true",
+                   help="as on an x86-64 CPU without AVX-512: numpy's AVX-512 dispatch and "
+                        "OpenBLAS's AVX-512 kernels off, numba compiling for a generic CPU "
+                        "into a fresh cache (trackcore.experiments.cpu; a child process)")
     executor_opts(v)
 
+    argv = sys.argv[1:] if argv is None else list(argv)
     args = p.parse_args(argv)
+    args.argv = argv
     if getattr(args, "dask", False) and not args.workers:
         p.error("--dask needs --workers K")
     try:

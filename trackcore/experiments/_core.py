@@ -72,6 +72,22 @@ def _canonical(value):
     return value
 
 
+def _same_config(book, other, rtol=FLOAT_RTOL) -> bool:
+    """Whether config ``other`` equals ``book`` with floats compared by the store's rule:
+    within relative ``rtol`` of the book's value; every other field equal."""
+    if type(book) is not type(other):
+        return False
+    if dataclasses.is_dataclass(book) and not isinstance(book, type):
+        return all(_same_config(getattr(book, f.name), getattr(other, f.name), rtol)
+                   for f in dataclasses.fields(book))
+    if isinstance(book, (tuple, list)):
+        return len(book) == len(other) and all(_same_config(a, b, rtol)
+                                               for a, b in zip(book, other))
+    if isinstance(book, (float, np.floating)):
+        return bool(book == other or abs(other - book) <= rtol * abs(book))
+    return bool(book == other)
+
+
 def config_hash(config) -> str:
     """SHA-256 (hex, 16 digits) of the canonical JSON of a config record."""
     text = json.dumps(_canonical(config), sort_keys=True, separators=(",", ":"))
@@ -127,12 +143,21 @@ class Experiment:
     notebook: str = ""
 
     def configure(self, overrides=None):
-        """The book's config with ``overrides`` ({field: value}) applied and validated."""
+        """The book's config with ``overrides`` ({field: value}) applied and validated.
+
+        A config that equals the book's except for floats within ``FLOAT_RTOL`` of the
+        book's values *is* the book's config (the book's record is returned): a field a
+        page recomputes before passing it (a calibrated noise level) then selects the
+        book's store on any CPU, where its last bits may differ (numpy's and OpenBLAS's
+        kernels with and without AVX-512 round differently); the store's own rule for
+        floats, :func:`matches`, decides, and any larger change selects another config.
+        """
         if not overrides:
             return self.config
         if not isinstance(overrides, dict):
             raise TypeError(f"overrides must be a dict, got {type(overrides).__name__}")
-        return self.config.with_overrides(overrides)
+        config = self.config.with_overrides(overrides)
+        return self.config if _same_config(self.config, config) else config
 
     def row(self, rng, config):
         """One run: the trial's result reduced to its row."""
@@ -540,6 +565,31 @@ def sample_size(runs, fraction=0.01, minimum=20) -> int:
     return min(runs, max(minimum, math.ceil(float(fraction) * runs - 1e-9)))
 
 
+def _agree(a, b, rtol):
+    """Element-wise: floats equal or within ``rtol`` relative to the stored ``a`` (NaN
+    where and only where ``a`` is NaN, infinities equal); anything else equal."""
+    if np.issubdtype(a.dtype, np.floating):
+        same_nan = np.isnan(a) == np.isnan(b)
+        with np.errstate(invalid="ignore"):
+            close = (a == b) | (np.abs(a - b) <= rtol * np.abs(a))
+        return same_nan & (close | np.isnan(a))
+    return a == b
+
+
+def matches(stored, fresh, rtol=FLOAT_RTOL) -> bool:
+    """Whether a recomputed value ``fresh`` reproduces a ``stored`` one by the store's rule
+    (the rule of :func:`compare_rows` and :func:`verify_sample`): same shape and dtype,
+    integers and booleans equal, floats within relative tolerance ``rtol`` of the stored
+    value (default ``FLOAT_RTOL``).  For a notebook's check that a rebuilt run is a stored
+    one: the bits may differ on another CPU (numpy's and OpenBLAS's kernels with and
+    without AVX-512 round differently), the rule's verdict does not."""
+    a, b = np.asarray(stored), np.asarray(fresh)
+    rtol = float(rtol)
+    if not (0.0 <= rtol < 1.0):
+        raise ValueError(f"rtol must be in [0, 1), got {rtol!r}")
+    return a.shape == b.shape and a.dtype == b.dtype and bool(np.all(_agree(a, b, rtol)))
+
+
 def compare_rows(stored, fresh, run, rtol=FLOAT_RTOL):
     """Raise :class:`VerificationError` unless ``fresh`` reproduces ``stored``.
 
@@ -555,13 +605,7 @@ def compare_rows(stored, fresh, run, rtol=FLOAT_RTOL):
         if a.shape != b.shape or a.dtype != b.dtype:
             raise VerificationError(f"run {run}, column {name!r}: stored {a.dtype} {a.shape}, "
                                     f"recomputed {b.dtype} {b.shape}")
-        if np.issubdtype(a.dtype, np.floating):
-            same_nan = np.isnan(a) == np.isnan(b)
-            with np.errstate(invalid="ignore"):
-                close = (a == b) | (np.abs(a - b) <= rtol * np.abs(a))
-            ok = same_nan & (close | np.isnan(a))
-        else:
-            ok = a == b
+        ok = _agree(a, b, rtol)
         if not np.all(ok):
             k = np.unravel_index(int(np.argmin(ok)), ok.shape) if ok.ndim else ()
             where = f"[{', '.join(map(str, k))}]" if k else ""
