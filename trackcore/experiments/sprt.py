@@ -20,6 +20,14 @@ Registered (the book's seeds and run counts, 06-sensitivity):
   IMM with the release cue, IMM 50/50) with the 20 % prior, 5000 runs each;
 * ``sprt-t10-boost-rep-s2``, ``sprt-t10-boost-rep-s3``: the boost's replication on
   5000 runs of other seeds.
+
+and the chapter's declared geometry family (index, "Readings"; issue 27):
+
+* ``sprt-s1-family``: S1 in the family's cells other than G-A (45/0), on the 5000 runs of
+  S1's verdicts (seed + 500);
+* ``sprt-s2-family``, ``sprt-s3-family``: S2 / S3 in the cells other than G-B (7.5/-15),
+  on the 1000 runs of their verdicts (seed + 2, seed + 3); S3's two cells with lead +15
+  end at t = 80 s (the target passes within 8 sigma_r of the pursuer after that).
 """
 from __future__ import annotations
 
@@ -198,3 +206,36 @@ for _n in (2, 3):
         trial=_cells_trial, call=_cells_call, extract=_cells_extract,
         config=SprtCellsConfig(_n, (t10_cell("boost"),)),
         seed=SEED + 2000 + _n, runs=5000, version="1", notebook=_NB06))
+
+
+#: The declared geometry family (target course, pursuer lead; deg) besides the defaults:
+#: S1's cells other than G-A (45, 0); S2's and S3's add G-A to them (G-B is their default).
+FAMILY_S1 = ((33.8, 0.0), (33.8, -15.0), (33.8, 15.0), (45.0, -15.0), (45.0, 15.0))
+FAMILY_S23 = ((45.0, 0.0),) + FAMILY_S1
+
+
+def family_cell(scenario, alpha, lead):
+    """The cell of the declared family at target course ``alpha`` and pursuer lead
+    ``lead`` (deg); S3 with lead +15 ends at t = 80 s (declared with the family: later the
+    target passes within 8 sigma_r of the pursuer)."""
+    if scenario == 3 and lead > 0:
+        return cell_of(alpha_deg=float(alpha), lead_deg=float(lead), t_end=80.0)
+    return cell_of(alpha_deg=float(alpha), lead_deg=float(lead))
+
+
+register(Experiment(
+    name="sprt-s1-family",
+    description=("SPRT chapter, the declared geometry family: S1 in 33.8/0, 33.8/-15, "
+                 "33.8/+15, 45/-15, 45/+15 (course/lead, deg) on S1's verdict runs"),
+    trial=_cells_trial, call=_cells_call, extract=_cells_extract,
+    config=SprtCellsConfig(1, tuple(family_cell(1, a, lead) for a, lead in FAMILY_S1)),
+    seed=SEED + 500, runs=5000, version="1", notebook=_NB06))
+for _n in (2, 3):
+    register(Experiment(
+        name=f"sprt-s{_n}-family",
+        description=(f"SPRT chapter, the declared geometry family: S{_n} in 45/0, 33.8/0, "
+                     "33.8/-15, 33.8/+15, 45/-15, 45/+15 (course/lead, deg) on its verdict "
+                     "runs"),
+        trial=_cells_trial, call=_cells_call, extract=_cells_extract,
+        config=SprtCellsConfig(_n, tuple(family_cell(_n, a, lead) for a, lead in FAMILY_S23)),
+        seed=SEED + _n, runs=1000, version="1", notebook=_NB06))
