@@ -11,12 +11,15 @@ from trackcore.detection import sprt_decide
 from trackcore.experiments import VerificationError, get, load, run_experiment, verify_sample
 from trackcore.experiments._core import META_KEY
 from trackcore.experiments.sprt import (
+    FAMILY_S1,
+    FAMILY_S23,
     GEO_ALPHAS,
     GEO_LEADS,
     SprtCellsConfig,
     _cells_trial,
     cell_of,
     decision_summary,
+    family_cell,
     t10_cell,
 )
 from trackcore.scenarios import (
@@ -41,6 +44,18 @@ def test_registered_at_the_book_sizes():
     assert geo.index(cell_of(alpha_deg=45.0, lead_deg=0.0)) == 4 * 7 + 3
     assert len(GEO_ALPHAS) == len(GEO_LEADS) == 7
     assert t10_cell("imm_cue") == "beta_std_factor=0.2;target_model=imm;mu_release=1.0"
+
+
+def test_the_declared_family_is_registered_on_the_verdict_runs():
+    for name, seed, runs, cells in (("sprt-s1-family", SEED + 500, 5000, 5),
+                                    ("sprt-s2-family", SEED + 2, 1000, 6),
+                                    ("sprt-s3-family", SEED + 3, 1000, 6)):
+        e = get(name)
+        assert (e.seed, e.runs, len(e.config.cells)) == (seed, runs, cells), e
+    assert FAMILY_S23[1:] == FAMILY_S1 and FAMILY_S23[0] == (45.0, 0.0), FAMILY_S23
+    assert family_cell(3, 45.0, 15.0) == "alpha_deg=45.0;lead_deg=15.0;t_end=80.0"
+    assert family_cell(2, 45.0, 15.0) == "alpha_deg=45.0;lead_deg=15.0"
+    assert family_cell(3, 33.8, -15.0) == "alpha_deg=33.8;lead_deg=-15.0"
 
 
 def _direct(scenario, cell, runs, seed, h1_true=False):
