@@ -364,6 +364,7 @@ from . import (
     fjpda_extensions,  # noqa: E402,F401  (feature-JPDA extensions, 004-07)
     fjpda_scenes,  # noqa: E402,F401  (feature-JPDA scene results, 004-05)
     hpda_extensions,  # noqa: E402,F401  (000-hpda/07's experiments)
+    sprt,  # noqa: E402,F401  (SPRT chapter, 002-06: sprt-*)
     tbd_extensions,  # noqa: E402,F401  (TBD chapter, extensions page)
     tbd_tracking,  # noqa: E402,F401  (the TBD chapter's tracking experiments)
     tom_cause,  # noqa: E402,F401  (001-05: registers tom-cause-*)

@@ -1,0 +1,241 @@
+"""Experiments of the SPRT chapter (002): the decisions of the paper's test per run.
+
+A config names one of the paper's scenarios and a tuple of *cells*, each a set of
+changes to the scenario (:class:`~trackcore.scenarios.SprtAcmScenario` fields, e.g. the
+geometry ``alpha_deg=45;lead_deg=0``) and to the filters
+(:class:`~trackcore.trackers.SprtAcmFilterConfig` fields, e.g. ``target_model=boost``).
+Run ``i`` simulates every cell from the same generator state (common random numbers, as
+the chapter's notebooks do when they run several settings with one master seed), so
+each cell's rows are exactly the runs of ``sprt_acm_monte_carlo(scenario, n, seed,
+config)``.  A row keeps, per cell, the test's decision ``d`` (0: H0, the right answer
+under H0; 1: H1; -1: undecided at the end of the run) and its decision scan ``k``
+(1-based, 0 when undecided) at the cell's threshold ``gamma``: the compact result
+that the chapter's sweeps decide their verdicts on.
+
+Registered (the book's seeds and run counts, 06-sensitivity):
+
+* ``sprt-s1-geometry``: S1 on 7 x 7 geometries (target course 30..60 deg, pursuer
+  lead -20..10 deg), 5000 runs on S1's seed;
+* ``sprt-t10-s2``, ``sprt-t10-s3``: the turn-tolerant target filters (boost, IMM,
+  IMM with the release cue, IMM 50/50) with the 20 % prior, 5000 runs each;
+* ``sprt-t10-boost-rep-s2``, ``sprt-t10-boost-rep-s3``: the boost's replication on
+  5000 runs of other seeds.
+
+and the chapter's declared geometry family (index, "Readings"; issue 27):
+
+* ``sprt-s1-family``: S1 in the family's cells other than G-A (45/0), on the 5000 runs of
+  S1's verdicts (seed + 500);
+* ``sprt-s2-family``, ``sprt-s3-family``: S2 / S3 in the cells other than G-B (7.5/-15),
+  on the 1000 runs of their verdicts (seed + 2, seed + 3); S3's two cells with lead +15
+  end at t = 80 s (the target passes within 8 sigma_r of the pursuer after that).
+"""
+from __future__ import annotations
+
+import dataclasses
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..detection import sprt_decide
+from ..scenarios.sprt_acm import (SprtAcmScenario, sprt_acm_filter_config,
+                                  sprt_acm_measurements, sprt_acm_scenario, sprt_acm_truth)
+from ..trackers.sprt_discriminator import SprtAcmFilterConfig, sprt_acm_discriminate
+from ._checks import check_names
+from ._core import Experiment, register
+from .registry import _Config
+
+__all__ = ["SprtCellsConfig", "cell_of", "decision_summary", "t10_cell"]
+
+SEED = 20261123  # the chapter's seed
+_NB06 = "book/002-sprt-acm/06-sensitivity.ipynb"
+_SCENARIO_KEYS = {f.name for f in dataclasses.fields(SprtAcmScenario)} - {"name"}
+_FILTER_KEYS = {f.name for f in dataclasses.fields(SprtAcmFilterConfig)}
+_STRING_KEYS = {"target_model"}
+
+
+@functools.lru_cache(maxsize=256)
+def _cell(scenario, cell):
+    """The (scenario, filter config, truth) of a cell ``"name=value;name=value"`` ("" for the
+    paper's settings)."""
+    if not isinstance(cell, str):
+        raise TypeError(f"a cell must be a str, got {cell!r}")
+    sc_changes, f_changes = {}, {}
+    for part in filter(None, (p.strip() for p in cell.split(";"))):
+        name, eq, value = (s.strip() for s in part.partition("="))
+        if not eq or not value:
+            raise ValueError(f"cell {cell!r}: expected name=value, got {part!r}")
+        if name in _STRING_KEYS:
+            parsed = value
+        else:
+            try:
+                parsed = float(value)
+            except ValueError:
+                raise ValueError(f"cell {cell!r}: {name} must be a number, "
+                                 f"got {value!r}") from None
+        if name in _SCENARIO_KEYS:
+            target = sc_changes
+        elif name in _FILTER_KEYS:
+            target = f_changes
+        else:
+            raise ValueError(f"cell {cell!r}: unknown setting {name!r}; expected a "
+                             f"scenario field {sorted(_SCENARIO_KEYS)} or a filter field "
+                             f"{sorted(_FILTER_KEYS)}")
+        if name in target:
+            raise ValueError(f"cell {cell!r}: {name} set twice")
+        target[name] = parsed
+    sc = sprt_acm_scenario(scenario, **sc_changes)
+    return sc, sprt_acm_filter_config(sc, **f_changes), sprt_acm_truth(sc)
+
+
+@dataclass(frozen=True)
+class SprtCellsConfig(_Config):
+    """Scenario ``scenario`` (1, 2 or 3) of the paper under each of ``cells`` (a
+    non-empty tuple of distinct ``"name=value;..."`` strings of scenario and filter
+    changes, ``""`` the paper's settings), with ``H1`` true when ``h1_true``."""
+
+    scenario: int
+    cells: tuple = ("",)
+    h1_true: bool = False
+
+    _KINDS = {"scenario": int, "cells": tuple}
+
+    def __post_init__(self):
+        if isinstance(self.scenario, bool) or self.scenario not in (1, 2, 3):
+            raise ValueError(f"scenario must be 1, 2 or 3, got {self.scenario!r}")
+        if not isinstance(self.cells, tuple) or not self.cells:
+            raise TypeError(f"cells must be a non-empty tuple, got {self.cells!r}")
+        check_names(self.cells, "cells", item="cell")
+        if not isinstance(self.h1_true, bool):
+            raise TypeError(f"h1_true must be a bool, got {self.h1_true!r}")
+        for c in self.cells:
+            _cell(self.scenario, c)  # raises on a bad cell
+
+
+def _cells_trial(rng, scenario, cells, h1_true):
+    """One run of every cell from the same generator state: (d, k) per cell."""
+    d = np.empty(len(cells), dtype=np.int8)
+    k = np.empty(len(cells), dtype=np.int16)
+    state = rng.bit_generator.state
+    for j, c in enumerate(cells):
+        sc, cfg, truth = _cell(scenario, c)
+        rng.bit_generator.state = state
+        # = sprt_acm_trial(rng, sc, cfg, h1_true), with the truth computed once per cell
+        z = sprt_acm_measurements(sc, rng, truth, h1_true=h1_true)
+        out = sprt_acm_discriminate(z.z_pre, z.z_a, z.z_b, truth.own, sc.T, cfg)
+        if not bool(out.ok):
+            raise ValueError(f"cell {c!r}: a filter covariance lost positive definiteness")
+        d[j], k[j] = sprt_decide(out.llr, -sc.gamma, sc.gamma)
+    return d, k
+
+
+def _cells_call(config):
+    return (config.scenario, config.cells, config.h1_true), {}
+
+
+def _cells_extract(out, config):
+    d, k = out
+    return {"d": d, "k": k}
+
+
+def cell_of(**changes):
+    """The cell string of scenario and filter ``changes`` (in the order given), e.g.
+    ``cell_of(alpha_deg=45.0, lead_deg=0.0)`` is ``"alpha_deg=45.0;lead_deg=0.0"``."""
+    for name, value in changes.items():
+        if isinstance(value, bool) or not isinstance(value, (str, int, float)):
+            raise TypeError(f"{name} must be a number or a str, got {value!r}")
+    return ";".join(f"{name}={value}" for name, value in changes.items())
+
+
+def decision_summary(d, k, min_runs=None):
+    """The success rate (Wilson interval) and the mean decision scan on success
+    (bootstrap interval; ``None`` with fewer than ``min_runs`` successes, default
+    :data:`trackcore.stats.MIN_RUNS`) of decisions ``d`` and decision scans ``k``,
+    with ``d`` and ``k`` as int64 arrays: ``{"d", "k", "success", "ksucc"}``."""
+    from ..stats import MIN_RUNS, mean_ci, rate_ci
+
+    d = np.asarray(d).astype(np.int64)
+    k = np.asarray(k).astype(np.int64)
+    if d.ndim != 1 or d.shape != k.shape or d.size == 0:
+        raise ValueError(f"d and k must be non-empty 1-D arrays of one length, got "
+                         f"{d.shape} and {k.shape}")
+    min_runs = MIN_RUNS if min_runs is None else min_runs
+    ok = d == 0
+    ksucc = mean_ci(k[ok]) if ok.sum() >= min_runs else None
+    return dict(d=d, k=k, success=rate_ci(int(ok.sum()), d.size), ksucc=ksucc)
+
+
+#: 06-sensitivity, S1's geometry sweep: target courses and pursuer leads (deg).
+GEO_ALPHAS = tuple(float(a) for a in np.arange(30.0, 61.0, 5.0))
+GEO_LEADS = tuple(float(x) for x in np.arange(-20.0, 11.0, 5.0))
+#: 06-sensitivity, T10's target filters (their changes to the paper's filters).
+T10_MODELS = {
+    "boost": dict(target_model="boost"),
+    "imm": dict(target_model="imm"),
+    "imm_cue": dict(target_model="imm", mu_release=1.0),
+    "imm_5050": dict(target_model="imm", mu_release=0.5, p_stay_cv=0.5,
+                     p_stay_manoeuvre=0.5),
+}
+
+
+def t10_cell(model):
+    """The cell of T10's target filter ``model`` with the 20 % prior of 1/r."""
+    return cell_of(beta_std_factor=0.2, **T10_MODELS[model])
+
+
+register(Experiment(
+    name="sprt-s1-geometry",
+    description=("SPRT chapter, S1 on 49 geometries (target course 30..60 deg x pursuer "
+                 "lead -20..10 deg): decision and decision scan per run"),
+    trial=_cells_trial, call=_cells_call, extract=_cells_extract,
+    config=SprtCellsConfig(1, tuple(cell_of(alpha_deg=a, lead_deg=lead) for lead in GEO_LEADS
+                                    for a in GEO_ALPHAS)),
+    seed=SEED + 1, runs=5000, version="1", notebook=_NB06))
+for _n in (2, 3):
+    register(Experiment(
+        name=f"sprt-t10-s{_n}",
+        description=(f"SPRT chapter, T10 in S{_n}: boost, IMM, IMM with the release cue "
+                     "and IMM 50/50 target filters, 20 % prior of 1/r"),
+        trial=_cells_trial, call=_cells_call, extract=_cells_extract,
+        config=SprtCellsConfig(_n, tuple(t10_cell(m) for m in T10_MODELS)),
+        seed=SEED + 1000 + _n, runs=5000, version="1", notebook=_NB06))
+    register(Experiment(
+        name=f"sprt-t10-boost-rep-s{_n}",
+        description=(f"SPRT chapter, T10 in S{_n}: the boost filter with the 20 % prior "
+                     "replicated on other seeds"),
+        trial=_cells_trial, call=_cells_call, extract=_cells_extract,
+        config=SprtCellsConfig(_n, (t10_cell("boost"),)),
+        seed=SEED + 2000 + _n, runs=5000, version="1", notebook=_NB06))
+
+
+#: The declared geometry family (target course, pursuer lead; deg) besides the defaults:
+#: S1's cells other than G-A (45, 0); S2's and S3's add G-A to them (G-B is their default).
+FAMILY_S1 = ((33.8, 0.0), (33.8, -15.0), (33.8, 15.0), (45.0, -15.0), (45.0, 15.0))
+FAMILY_S23 = ((45.0, 0.0),) + FAMILY_S1
+
+
+def family_cell(scenario, alpha, lead):
+    """The cell of the declared family at target course ``alpha`` and pursuer lead
+    ``lead`` (deg); S3 with lead +15 ends at t = 80 s (declared with the family: later the
+    target passes within 8 sigma_r of the pursuer)."""
+    if scenario == 3 and lead > 0:
+        return cell_of(alpha_deg=float(alpha), lead_deg=float(lead), t_end=80.0)
+    return cell_of(alpha_deg=float(alpha), lead_deg=float(lead))
+
+
+register(Experiment(
+    name="sprt-s1-family",
+    description=("SPRT chapter, the declared geometry family: S1 in 33.8/0, 33.8/-15, "
+                 "33.8/+15, 45/-15, 45/+15 (course/lead, deg) on S1's verdict runs"),
+    trial=_cells_trial, call=_cells_call, extract=_cells_extract,
+    config=SprtCellsConfig(1, tuple(family_cell(1, a, lead) for a, lead in FAMILY_S1)),
+    seed=SEED + 500, runs=5000, version="1", notebook=_NB06))
+for _n in (2, 3):
+    register(Experiment(
+        name=f"sprt-s{_n}-family",
+        description=(f"SPRT chapter, the declared geometry family: S{_n} in 45/0, 33.8/0, "
+                     "33.8/-15, 33.8/+15, 45/-15, 45/+15 (course/lead, deg) on its verdict "
+                     "runs"),
+        trial=_cells_trial, call=_cells_call, extract=_cells_extract,
+        config=SprtCellsConfig(_n, tuple(family_cell(_n, a, lead) for a, lead in FAMILY_S23)),
+        seed=SEED + _n, runs=1000, version="1", notebook=_NB06))
