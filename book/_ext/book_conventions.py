@@ -12,7 +12,9 @@
   notebook in a JupyterLab started at the repository root on ``localhost:8888`` (see the
   page "Running the notebooks").
 * **Style.** ``book/_static/book.css``: a CJK fallback font for the Korean titles, and
-  readable tables.
+  readable tables; ``book/_static/wide_tables.js`` fits a table that is wider than the text
+  column (tighter type, vertical headers over columns of counts) and marks one that still
+  cannot fit, so book.css shows a "scroll sideways" cue on it.
 """
 from __future__ import annotations
 
@@ -80,4 +82,5 @@ def setup(app):
     app.connect("html-page-context", _local_lab_button, priority=900)
     app.config.html_static_path = list(app.config.html_static_path) + [str(_STATIC)]
     app.add_css_file("book.css")
+    app.add_js_file("wide_tables.js", defer="defer")
     return {"version": "1.0", "parallel_read_safe": True, "parallel_write_safe": True}
