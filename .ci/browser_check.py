@@ -155,6 +155,8 @@ def check_page(page: Page, url: str) -> list[str]:
             "Array.from(document.querySelectorAll('mjx-merror')).map("
             "e => e.getAttribute('data-mjx-error') || e.textContent).slice(0, 5)"))
         problems.append(f"{merrors} MathJax error(s): {texts['result']['value']}")
+    urls = {e["params"]["requestId"]: e["params"]["request"]["url"] for e in page.events
+            if e.get("method") == "Network.requestWillBeSent"}
     for e in page.events:
         m, p = e.get("method"), e.get("params", {})
         if m == "Runtime.consoleAPICalled" and p.get("type") in ("error", "warning", "assert"):
@@ -172,7 +174,8 @@ def check_page(page: Page, url: str) -> list[str]:
             if not req.startswith(("file:", "data:", "blob:", "about:")):
                 problems.append(f"network request: {req[:160]}")
         elif m == "Network.loadingFailed" and not p.get("canceled"):
-            problems.append(f"failed to load: {p.get('errorText')} (request {p.get('requestId')})")
+            url = urls.get(p.get("requestId"), f"request {p.get('requestId')}")
+            problems.append(f"failed to load: {p.get('errorText')} ({url[:160]})")
     return problems
 
 

@@ -10,7 +10,9 @@
  *   3. if it is still too wide, the headers of its short-valued columns (counts, numbers)
  *      (headers longer than every value below them) are set vertically ("tc-vert"), so a
  *      header word no longer sets the column's width;
- *   4. a table that is still too wide (a phone, a narrow window) scrolls inside its box, and
+ *   4. on paper (the PDF of the book), a table still too wide is set in smaller type
+ *      ("tc-small", which only book.css's print rules size);
+ *   5. a table that is still too wide (a phone, a narrow window) scrolls inside its box, and
  *      the box is marked "tc-wide": book.css draws a "scroll sideways" line above the table,
  *      a shadow at the edge that hides columns, and a scrollbar that stays visible.
  * .ci/browser_check.py measures the result on every page: at 1400 px no table may be wider
@@ -124,7 +126,7 @@
   }
 
   function reset(table, box) {
-    table.classList.remove("tc-tight");
+    table.classList.remove("tc-tight", "tc-small");
     table.querySelectorAll("th.tc-vert").forEach(function (th) {
       th.classList.remove("tc-vert");
     });
@@ -140,6 +142,8 @@
     table.classList.add("tc-tight");
     if (!tooWide(table, box)) return;
     if (markNarrowColumns(table) && !tooWide(table, box)) return;
+    table.classList.add("tc-small"); // smaller type still, on paper only (book.css)
+    if (!tooWide(table, box)) return;
     box.classList.add("tc-wide");
   }
 
