@@ -1,14 +1,20 @@
 """Open every page of the built book in headless Chromium and report what a reader would see
 go wrong: console errors and warnings, uncaught exceptions, resources that fail to load, and
-MathJax errors (``mjx-merror`` elements after typesetting).
+MathJax errors (``mjx-merror`` elements after typesetting), and tables wider than the text
+column at a desktop width (1400 px): a table may be wider than the column only inside a
+scrolling box that shows a visible "scroll sideways" cue (``book/_static/wide_tables.js``
+marks such boxes ``tc-wide``; ``book.css`` draws the cue), otherwise it is a problem.
 
-Usage: python .ci/browser_check.py [_build/html]   (needs /usr/bin/chromium; Debian package
+Usage: python .ci/browser_check.py [_build/html] [--width PX] [--tables]   (needs /usr/bin/chromium; Debian package
 ``chromium``). Drives Chromium over the DevTools protocol with ``websocket-client`` (pinned in
 requirements.txt as a JupyterLab dependency). Network access is blocked: every request that
 is not ``file://`` or ``data:`` is reported as an error. Exits 1 if any page has a problem.
+``--width`` sets the viewport width (default 1400; below 700 px the page is laid out as on a
+phone); ``--tables`` lists every table wider than the text column, with or without a cue.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import shutil
 import socket
@@ -37,6 +43,7 @@ class Page:
         self.ws = websocket.create_connection(ws_url, timeout=60, suppress_origin=True)
         self.next_id = 0
         self.events: list[dict] = []
+        self.last_tables: list[dict] = []
 
     def call(self, method: str, **params):
         self.next_id += 1
@@ -75,6 +82,50 @@ new Promise((resolve) => {
 """
 
 
+# Every table in the page's article whose laid-out width exceeds the width a reader can see:
+# the text column (the article's content box) or a narrower clipping/scrolling ancestor. A
+# table counts as having a scroll affordance when its nearest horizontally scrolling ancestor
+# carries the class tc-wide and the cue that book.css draws for it is displayed.
+MEASURE_TABLES = """
+(() => {
+  const art = document.querySelector('article.bd-article') || document.querySelector('main')
+              || document.body;
+  const acs = getComputedStyle(art);
+  const column = art.clientWidth - parseFloat(acs.paddingLeft) - parseFloat(acs.paddingRight);
+  const out = [];
+  for (const t of art.querySelectorAll('table')) {
+    const r = t.getBoundingClientRect();
+    if (r.width === 0 && r.height === 0) continue;   // not displayed (folded)
+    const width = Math.max(t.scrollWidth, r.width);
+    let box = column, scroller = null;
+    for (let a = t.parentElement; a && a !== art; a = a.parentElement) {
+      const ox = getComputedStyle(a).overflowX;
+      if (ox === 'visible') continue;
+      box = Math.min(box, a.clientWidth);
+      if (!scroller && (ox === 'auto' || ox === 'scroll')) scroller = a;
+    }
+    if (width <= box + 1) continue;
+    let cue = false;
+    if (scroller && scroller.classList.contains('tc-wide')) {
+      const before = getComputedStyle(scroller, '::before');
+      cue = before.display !== 'none' && before.content !== 'none' && before.content !== '';
+    }
+    const head = Array.from(t.querySelectorAll('th')).slice(0, 4)
+      .map(h => h.textContent.trim().slice(0, 20)).join(' | ');
+    out.push({width: Math.round(width), box: Math.round(box), column: Math.round(column),
+              cue: cue, head: head || (t.textContent || '').trim().slice(0, 60)});
+  }
+  return out;
+})()
+"""
+
+
+def measure_tables(page: Page) -> list[dict]:
+    """Tables of the current page wider than what a reader sees (see MEASURE_TABLES)."""
+    return page.call("Runtime.evaluate", expression=MEASURE_TABLES,
+                     returnByValue=True)["result"]["value"]
+
+
 def check_page(page: Page, url: str) -> list[str]:
     page.events.clear()
     page.call("Page.navigate", url=url)
@@ -91,9 +142,12 @@ def check_page(page: Page, url: str) -> list[str]:
                         returnByValue=True)
         merrors = res["result"]["value"]
     page.drain(0.5)
+    wide = measure_tables(page)
+    page.last_tables = wide
     # every page is checked as a first visit: forget the theme mode and anything else stored
     page.call("Runtime.evaluate", expression="localStorage.clear(); sessionStorage.clear()")
-    problems = []
+    problems = [f"table {t['width']} px wide in {t['box']} px without a scroll cue: {t['head']}"
+                for t in wide if not t["cue"]]
     if merrors == -1:
         problems.append("MathJax did not start")
     elif merrors:
@@ -101,6 +155,8 @@ def check_page(page: Page, url: str) -> list[str]:
             "Array.from(document.querySelectorAll('mjx-merror')).map("
             "e => e.getAttribute('data-mjx-error') || e.textContent).slice(0, 5)"))
         problems.append(f"{merrors} MathJax error(s): {texts['result']['value']}")
+    urls = {e["params"]["requestId"]: e["params"]["request"]["url"] for e in page.events
+            if e.get("method") == "Network.requestWillBeSent"}
     for e in page.events:
         m, p = e.get("method"), e.get("params", {})
         if m == "Runtime.consoleAPICalled" and p.get("type") in ("error", "warning", "assert"):
@@ -118,19 +174,22 @@ def check_page(page: Page, url: str) -> list[str]:
             if not req.startswith(("file:", "data:", "blob:", "about:")):
                 problems.append(f"network request: {req[:160]}")
         elif m == "Network.loadingFailed" and not p.get("canceled"):
-            problems.append(f"failed to load: {p.get('errorText')} (request {p.get('requestId')})")
+            url = urls.get(p.get("requestId"), f"request {p.get('requestId')}")
+            problems.append(f"failed to load: {p.get('errorText')} ({url[:160]})")
     return problems
 
 
-def main(root: str = "_build/html") -> int:
+class BrowserUnavailable(RuntimeError):
+    pass
+
+
+@contextlib.contextmanager
+def browser(width: int = 1400):
+    """A headless Chromium with one tab, its viewport ``width`` px wide (a phone's layout
+    below 700 px), and the DevTools domains the check needs enabled; yields its Page."""
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     if not chromium:
-        print("browser_check: chromium not found (Debian package 'chromium')", file=sys.stderr)
-        return 2
-    root_path = Path(root).resolve()
-    pages = sorted(p for p in root_path.rglob("*.html")
-                   if not {"_static", "_sources", "_images", "mathjax"} & set(p.relative_to(root_path).parts)
-                   and p.name not in ("search.html", "genindex.html"))
+        raise BrowserUnavailable("chromium not found (Debian package 'chromium')")
     port = _free_port()
     with tempfile.TemporaryDirectory(ignore_cleanup_errors=True) as profile:
         proc = subprocess.Popen([chromium, *FLAGS, f"--remote-debugging-port={port}",
@@ -144,28 +203,65 @@ def main(root: str = "_build/html") -> int:
                 except OSError:
                     time.sleep(0.1)
             else:
-                print("browser_check: chromium did not open its debugging port", file=sys.stderr)
-                return 2
+                raise BrowserUnavailable("chromium did not open its debugging port")
             tab = next(t for t in tabs if t.get("type") == "page")
             page = Page(tab["webSocketDebuggerUrl"])
             for domain in ("Page", "Runtime", "Log", "Network"):
                 page.call(f"{domain}.enable")
+            page.call("Emulation.setDeviceMetricsOverride", width=width, height=900,
+                      deviceScaleFactor=1, mobile=width < 700)
+            yield page
+        finally:
+            proc.terminate()
+            proc.wait(timeout=10)
+
+
+def main(*argv: str) -> int:
+    args = list(argv)
+    width, list_tables = 1400, False
+    if "--tables" in args:
+        args.remove("--tables")
+        list_tables = True
+    if "--width" in args:
+        i = args.index("--width")
+        width = int(args[i + 1])
+        del args[i:i + 2]
+    root = args[0] if args else "_build/html"
+    root_path = Path(root).resolve()
+    pages = sorted(p for p in root_path.rglob("*.html")
+                   if not {"_static", "_sources", "_images", "mathjax"} & set(p.relative_to(root_path).parts)
+                   and p.name not in ("search.html", "genindex.html"))
+    try:
+        with browser(width) as page:
             bad = 0
+            n_wide = n_cued = 0
+            wide_pages = set()
             for p in pages:
                 problems = check_page(page, p.as_uri())
                 rel = p.relative_to(root_path)
+                n_wide += len(page.last_tables)
+                n_cued += sum(t["cue"] for t in page.last_tables)
+                if page.last_tables:
+                    wide_pages.add(rel)
+                if list_tables:
+                    for t in page.last_tables:
+                        print(f"WIDE {rel}: {t['width']} px in {t['box']} px "
+                              f"(column {t['column']} px), cue {'yes' if t['cue'] else 'NO'}: "
+                              f"{t['head']}")
                 if problems:
                     bad += 1
                     print(f"FAIL {rel}")
                     for line in problems:
                         print(f"     {line}")
-            print(f"browser_check: {len(pages)} pages, {bad} with problems "
-                  f"(console errors/warnings, exceptions, failed loads, network requests, "
-                  f"MathJax errors)")
-            return 1 if bad else 0
-        finally:
-            proc.terminate()
-            proc.wait(timeout=10)
+    except BrowserUnavailable as e:
+        print(f"browser_check: {e}", file=sys.stderr)
+        return 2
+    print(f"browser_check at {width} px: {n_wide} table(s) on {len(wide_pages)} page(s) "
+          f"wider than the text column, {n_wide - n_cued} of them without a scroll cue")
+    print(f"browser_check: {len(pages)} pages, {bad} with problems "
+          f"(console errors/warnings, exceptions, failed loads, network requests, "
+          f"MathJax errors, tables overflowing without a scroll cue)")
+    return 1 if bad else 0
 
 
 if __name__ == "__main__":
