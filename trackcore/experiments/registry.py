@@ -365,6 +365,7 @@ from . import (
     fjpda_scenes,  # noqa: E402,F401  (feature-JPDA scene results, 004-05)
     hpda_extensions,  # noqa: E402,F401  (000-hpda/07's experiments)
     tbd_extensions,  # noqa: E402,F401  (TBD chapter, extensions page)
+    tbd_grid,  # noqa: E402,F401  (TBD chapter, the verdict grid, 003-06)
     tbd_tracking,  # noqa: E402,F401  (the TBD chapter's tracking experiments)
     tom_cause,  # noqa: E402,F401  (001-05: registers tom-cause-*)
 )
