@@ -31,7 +31,8 @@ from .tbd_tracking import (
     _scenario,
 )
 
-__all__ = ["TbdGridConfig", "tbd_grid_capped"]
+__all__ = ["TbdGridConfig", "tbd_grid_capped", "tbd_grid_columns", "tbd_grid_lost",
+           "tbd_grid_values"]
 
 _NB = "book/003-tbd-pf/06-verdict-grid.ipynb"
 #: The grid's seed: fresh runs, none shared with the ``tbd-tracking-*`` stores.
@@ -105,6 +106,60 @@ def tbd_grid_capped(errors, processing_radius):
     return np.minimum(E, float(processing_radius) + CLUTTER_MARGIN)
 
 
+#: The losses of the loss reading: a run is lost (outcome > 0) or lost for good
+#: (outcome 2 or 3: lost and its last 10 errors not all within 1 km).
+LOSSES = ("lost", "diverged")
+#: The accuracy measures of the metric reading.
+METRICS = ("paper mean", "capped", "held runs")
+_STATS = {"100": ("m100", "c100"), "all": ("mall", "call"), "sd": ("sd", "sdc")}
+
+
+def tbd_grid_lost(outcome, loss):
+    """Boolean ``(runs, trackers)``: the runs counted as lost under ``loss``
+    (:data:`LOSSES`), from the stored outcome codes ``outcome (runs, trackers)``."""
+    code = np.asarray(outcome)
+    if code.ndim != 2 or not np.issubdtype(code.dtype, np.integer):
+        raise ValueError(f"outcome must be a 2-D integer array, got {code.dtype} "
+                         f"with shape {code.shape}")
+    if code.size and (code.min() < 0 or code.max() > 3):
+        raise ValueError("outcome codes must lie in 0..3")
+    if loss == "lost":
+        return code > 0
+    if loss == "diverged":
+        return code >= 2
+    raise ValueError(f"loss must be one of {LOSSES}, got {loss!r}")
+
+
+def tbd_grid_values(columns, trackers, stat, metric, loss="lost", among=("A", "B", "C")):
+    """Per tracker the per-run values of ``stat`` under the accuracy measure ``metric``.
+
+    ``columns``: a stored grid result (or a dict) with the per-run columns ``m100``,
+    ``mall``, ``c100``, ``call``, ``sd``, ``sdc`` and ``outcome``, each ``(runs,
+    len(trackers))``; ``stat``: ``"100"`` (mean E_err over k = 1..100), ``"all"`` (the
+    whole run) or ``"sd"`` (the standard deviation of E_err over the run); ``metric``: a
+    value of :data:`METRICS` -- ``"paper mean"`` (as printed), ``"capped"`` (E_err capped
+    at R + 5 km) or ``"held runs"`` (as printed, on the runs that none of ``among`` lost
+    under ``loss``).  Returns ``{tracker: 1-D array}`` (paired: the same runs for all).
+    """
+    if stat not in _STATS:
+        raise ValueError(f"stat must be one of {tuple(_STATS)}, got {stat!r}")
+    if metric not in METRICS:
+        raise ValueError(f"metric must be one of {METRICS}, got {metric!r}")
+    trackers = list(trackers)
+    raw, cap = _STATS[stat]
+    X = np.asarray(columns[cap if metric == "capped" else raw], dtype=np.float64)
+    if X.ndim != 2 or X.shape[1] != len(trackers):
+        raise ValueError(f"column {raw!r} must be (runs, {len(trackers)}), got {X.shape}")
+    keep = np.ones(X.shape[0], dtype=bool)
+    if metric == "held runs":
+        missing = sorted(set(among) - set(trackers))
+        if missing:
+            raise ValueError(f"among names trackers not stored: {missing}")
+        lost = tbd_grid_lost(columns["outcome"], loss)
+        keep = ~lost[:, [trackers.index(t) for t in among]].any(axis=1)
+    return {t: X[keep, j] for j, t in enumerate(trackers)}
+
+
 @functools.lru_cache(maxsize=32)
 def _configs(config):
     return {k: _tracker(k, config.processing_radius, config.scenario)
@@ -116,23 +171,40 @@ def _call(config):
     return (_configs(config), prm, truth), {}
 
 
-def _extract(out, config):
+def tbd_grid_columns(errors, processing_radius):
+    """The grid's per-run numbers of the error series ``errors (..., trackers, scans)``
+    (m): ``m100``, ``mall``, ``c100``, ``call``, ``sd``, ``sdc`` (float64) and
+    ``outcome`` (int8), each of shape ``(..., trackers)`` (see the module docstring)."""
     from ..trackers import tbd_run_outcomes
 
-    E = np.array([out.errors[k] for k in config.trackers], dtype=np.float64)
-    C = tbd_grid_capped(E, config.processing_radius)
-    res = tbd_run_outcomes(E)
-    code = np.zeros(len(config.trackers), dtype=np.int8)
+    E = np.asarray(errors, dtype=np.float64)
+    if E.ndim < 2 or E.shape[-1] < 10:
+        raise ValueError(f"errors must be (..., trackers, scans) with at least 10 scans, "
+                         f"got shape {E.shape}")
+    C = tbd_grid_capped(E, processing_radius)
+    res = tbd_run_outcomes(E.reshape(-1, E.shape[-1]))
+    code = np.zeros(E.shape[:-1], dtype=np.int8).reshape(-1)
     code[res.transient], code[res.diverged], code[res.other] = 1, 2, 3
-    return {"m100": E[:, :100].mean(axis=1), "mall": E.mean(axis=1),
-            "c100": C[:, :100].mean(axis=1), "call": C.mean(axis=1),
-            "sd": E.std(axis=1), "sdc": C.std(axis=1), "outcome": code,
-            "x0": np.float64(out.x0[0])}
+    return {"m100": E[..., :100].mean(axis=-1), "mall": E.mean(axis=-1),
+            "c100": C[..., :100].mean(axis=-1), "call": C.mean(axis=-1),
+            "sd": E.std(axis=-1), "sdc": C.std(axis=-1),
+            "outcome": code.reshape(E.shape[:-1])}
 
 
-#: Runs per cell, fixed before any run of the grid (the declaration commit).
-RUNS = {"base": 2000, "clut4": 500, "snr6": 500, "snr6-clut4": 500}
-STRONG_RUNS = 2000
+def _extract(out, config):
+    E = np.array([out.errors[k] for k in config.trackers], dtype=np.float64)
+    row = tbd_grid_columns(E, config.processing_radius)
+    row["x0"] = np.float64(out.x0[0])
+    return row
+
+
+#: Fresh runs per cell, fixed before any result of the grid was seen (the second
+#: declaration: the first, 2000 and 500, would have taken over an hour per store at the
+#: machine's measured load).  The baseline cells are pooled with the runs of
+#: ``tbd-tracking-main-*`` (1000 at 2.5 km, 500 at 1 km) to 2000 paired runs each.
+RUNS = {("base", 2500.0): 1000, ("base", 1000.0): 1500}
+CELL_RUNS = 200
+STRONG_RUNS = 1000
 
 
 def _register():
@@ -155,7 +227,8 @@ def _register():
                 description=f"TBD grid, A, B and C in the {what} (per-run numbers)",
                 trial=tbd_paired_trial, call=_call, extract=_extract,
                 config=TbdGridConfig(scenario=scen, processing_radius=R),
-                seed=GRID_SEED, runs=RUNS[scen], version="1", notebook=_NB))
+                seed=GRID_SEED, runs=RUNS.get((scen, R), CELL_RUNS), version="1",
+                notebook=_NB))
     register(Experiment(
         name="tbd-grid-strong-25",
         description="TBD grid, stronger baselines (B resampling every scan, sigma_a = 30) "
