@@ -23,12 +23,12 @@ def test_the_grid_is_registered_with_the_declared_counts():
     want = {f"tbd-grid-{s}-{r}" for s in SCENARIOS for r in ("25", "10")}
     assert want <= set(names()), sorted(want - set(names()))
     assert get("tbd-grid-base-25").runs == 1000, "pooled with main-25's 1000 to 2000"
-    assert get("tbd-grid-base-10").runs == 1500, "pooled with main-10's 500 to 2000"
+    assert get("tbd-grid-base-10").runs == 500, "pooled with main-10's 500 to 1000"
     for r in ("25", "10"):
         for s in ("clut4", "snr6", "snr6-clut4"):
             assert get(f"tbd-grid-{s}-{r}").runs == 200, f"{s}-{r}: 200 runs declared"
             assert get(f"tbd-grid-calibration-{s}-{r}").runs == 200
-    assert get("tbd-grid-strong-25").runs == 1000
+    assert get("tbd-grid-strong-25").runs == 500
     assert all(get(n).seed == GRID_SEED for n in want), "one fresh seed for the grid"
 
 
