@@ -22,7 +22,7 @@ from trackcore.trackers import TbdTrackerConfig, tbd_run_outcomes
 def test_the_grid_is_registered_with_the_declared_counts():
     want = {f"tbd-grid-{s}-{r}" for s in SCENARIOS for r in ("25", "10")}
     assert want <= set(names()), sorted(want - set(names()))
-    assert get("tbd-grid-base-25").runs == 1000, "pooled with main-25's 1000 to 2000"
+    assert get("tbd-grid-base-25").runs == 500, "pooled with main-25's 1000 to 1500"
     assert get("tbd-grid-base-10").runs == 500, "pooled with main-10's 500 to 1000"
     for r in ("25", "10"):
         for s in ("clut4", "snr6", "snr6-clut4"):

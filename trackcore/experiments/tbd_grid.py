@@ -200,11 +200,12 @@ def _extract(out, config):
 
 #: Fresh runs per cell, fixed before any result of the grid was seen (the second
 #: declaration: the first, 2000 and 500, would have taken over an hour per store at the
-#: machine's measured load; then 1500 fresh at 1 km and 1000 strong-baseline runs, cut
-#: when the load left each worker about 3 % of a core).  The baseline cells are pooled
-#: with the runs of ``tbd-tracking-main-*`` (1000 at 2.5 km, 500 at 1 km): 2000 paired
-#: runs at 2.5 km, 1000 at 1 km.
-RUNS = {("base", 2500.0): 1000, ("base", 1000.0): 500}
+#: machine's measured load; then 1500 and 1000 fresh baseline runs and 1000
+#: strong-baseline runs, cut when the load left each worker about 2.5 % of a core, 1.5 s
+#: of CPU a minute, against 0.09 s of CPU per run at 2.5 km).  The baseline cells are
+#: pooled with the runs of ``tbd-tracking-main-*`` (1000 at 2.5 km, 500 at 1 km): 1500
+#: paired runs at 2.5 km, 1000 at 1 km.
+RUNS = {("base", 2500.0): 500, ("base", 1000.0): 500}
 CELL_RUNS = 200
 STRONG_RUNS = 500
 
