@@ -366,6 +366,7 @@ from . import (
     hpda_extensions,  # noqa: E402,F401  (000-hpda/07's experiments)
     sprt,  # noqa: E402,F401  (SPRT chapter, 002-06: sprt-*)
     tbd_extensions,  # noqa: E402,F401  (TBD chapter, extensions page)
+    tbd_grid,  # noqa: E402,F401  (TBD chapter, the verdict grid, 003-06)
     tbd_tracking,  # noqa: E402,F401  (the TBD chapter's tracking experiments)
     tom_cause,  # noqa: E402,F401  (001-05: registers tom-cause-*)
 )

@@ -35,12 +35,12 @@ def _check_scenario(config):
 
 @functools.lru_cache(maxsize=16)
 def _scenario(processing_radius, snr0_db, clutter_density):
-    """The radar parameters and the truth (the truth does not depend on these three)."""
+    """The radar parameters and the truth (whose mean SNR follows ``snr0_db``)."""
     from ..scenarios import TbdRadarParameters, tbd_radar_truth
 
     prm = TbdRadarParameters(processing_radius=float(processing_radius),
                              snr0_db=float(snr0_db), clutter_density=float(clutter_density))
-    return prm, tbd_radar_truth()
+    return prm, tbd_radar_truth(prm)
 
 
 def _tracker(key, processing_radius):
