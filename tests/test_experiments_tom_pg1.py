@@ -116,3 +116,25 @@ def test_the_store_verifies_and_the_config_checks():
         TomNoGateConfig(pg=0.0)
     with pytest.raises(ValueError, match="unknown filter key"):
         TomNoGateConfig(filters=("tom:bogus=1",))
+
+
+def test_tuned_gate_rows_equal_the_direct_runs():
+    from trackcore.experiments.tom_pg1 import VBEST
+
+    sets = [_tom_variant(TUNED), _tom_variant(VBEST)]
+    res = run_experiment("tom-imm-houles-tuned-gates", runs=2, write=False, progress=False)
+    for g, pg in enumerate((0.99, 0.999, 0.9999)):
+        d = stack_results(run(houles_imm_trial, 2, SEED, args=(sets,), kwargs={"pg": pg}))
+        assert np.array_equal(res["window_mse"][:, g], window_mse(d.pos_err2)), pg
+        assert np.array_equal(res["target_gated"][:, g], d.target_gated), pg
+
+
+def test_bad_tuned_gate_configs_raise():
+    from trackcore.experiments.tom_pg1 import TomGatesConfig
+
+    with pytest.raises(ValueError, match="every gate probability"):
+        TomGatesConfig(gates=(0.99, 1.5))
+    with pytest.raises(TypeError, match="gates must be a non-empty tuple"):
+        TomGatesConfig(gates=())
+    with pytest.raises(ValueError, match="clutter_density must be >= 0"):
+        TomGatesConfig(clutter_density=-1.0)
