@@ -47,7 +47,6 @@ __all__ = [
     "FailureComparison",
     "failure_comparison",
     "FAILURE_DEFINITIONS",
-    "FailureCell",
     "failure_grid",
     "rmse_estimate",
     "rmse_ratio",
@@ -488,7 +487,8 @@ FAILURE_DEFINITIONS = (
 
 
 class FailureCell(NamedTuple):
-    """One failure definition on the runs of one gate (see :func:`failure_grid`)."""
+    """One failure definition on the runs of one gate (see :func:`failure_grid`; a
+    result record, not exported)."""
     rate: tuple                      # per filter: failure rate with its interval
     singer_minus_tom: FailureComparison
     tom_minus_car: FailureComparison
