@@ -1967,3 +1967,10 @@ def matched_config():
 def steady_state_gate():
     from trackcore.trackers import JPDATrackerConfig as C
     return call(C(variant="FJPDA"))
+
+
+@example()
+def failure_grid():
+    r = np.random.default_rng(6)
+    mx = r.random((40, 3)) * 3e5
+    return call(mx, mx * r.random((40, 3)), r.random((40, 3)) < 0.1)

@@ -370,3 +370,4 @@ from . import (
     tbd_tracking,  # noqa: E402,F401  (the TBD chapter's tracking experiments)
     tom_cause,  # noqa: E402,F401  (001-05: registers tom-cause-*)
 )
+from . import tom_pg1  # noqa: E402,F401  (001-03: tom-imm-houles-pg1, no gate)

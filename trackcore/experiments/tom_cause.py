@@ -44,32 +44,41 @@ def _finite(config, names):
 def _tom_variant(key):
     """The TOM-IMM model set of a filter key: ``"tom"`` (the chapter's) or
     ``"tom:NAME=VALUE"`` with NAME one of ``_TOM_KEYS`` (``p_stay``: the Markov
-    diagonal)."""
+    diagonal); several settings are joined by commas, ``"tom:u=50.0,p_stay=0.95"``."""
     from ..trackers import markov_matrix, tom_imm_model_set
 
     if not isinstance(key, str):
         raise TypeError(f"a filter key must be a str, got {key!r}")
     if key == "tom":
         return tom_imm_model_set()
-    kind, _, setting = key.partition(":")
-    name, _, value = setting.partition("=")
-    if kind != "tom" or name not in _TOM_KEYS or not value:
-        raise ValueError(f"unknown filter key {key!r}; expected 'tom' or 'tom:NAME=VALUE' "
-                         f"with NAME in {sorted(_TOM_KEYS)}")
+    kind, _, settings = key.partition(":")
+    kwargs = {}
+    for setting in settings.split(","):
+        name, _, value = setting.partition("=")
+        if kind != "tom" or name not in _TOM_KEYS or not value or name in kwargs:
+            raise ValueError(f"unknown filter key {key!r}; expected 'tom' or "
+                             f"'tom:NAME=VALUE[,NAME=VALUE...]' with distinct NAMEs in "
+                             f"{sorted(_TOM_KEYS)}")
+        kwargs[name] = _tom_value(key, name, value)
+    if "p_stay" in kwargs:
+        kwargs["transition"] = markov_matrix(3, kwargs.pop("p_stay"))
+    return tom_imm_model_set(**kwargs)
+
+
+def _tom_value(key, name, value):
+    """The value of one ``NAME=VALUE`` setting of a filter key, read as ``_TOM_KEYS``
+    says."""
     kind_of = _TOM_KEYS[name]
     if kind_of is bool:
         if value not in ("0", "1"):
             raise ValueError(f"filter key {key!r}: {name} must be 0 or 1")
-        return tom_imm_model_set(**{name: value == "1"})
+        return value == "1"
     if kind_of is str:
-        return tom_imm_model_set(**{name: value})
+        return value
     try:
-        v = float(value)
+        return float(value)
     except ValueError:
         raise ValueError(f"filter key {key!r}: {name} must be a number") from None
-    if name == "p_stay":
-        return tom_imm_model_set(transition=markov_matrix(3, v))
-    return tom_imm_model_set(**{name: v})
 
 
 @dataclass(frozen=True)

@@ -46,6 +46,8 @@ __all__ = [
     "failure_anatomy",
     "FailureComparison",
     "failure_comparison",
+    "FAILURE_DEFINITIONS",
+    "failure_grid",
     "rmse_estimate",
     "rmse_ratio",
     "rmse_estimate_mse",
@@ -123,14 +125,18 @@ _MAX_CLUTTER_PER_SCAN = 1e5
 
 
 def houles_measurements(truth, rng, *, sigma=20.0, pd=1.0, clutter_density=2e-6, window=2000.0,
-                        times=None):
+                        times=None, outer_window=None):
     """Simulate the sensor for the true states ``truth`` (K, >= 2) (positions first).
 
     Each scan holds the target measurement ``truth[k, :2] + N(0, sigma^2 I)``
     with probability ``pd`` and ``Poisson(clutter_density * window^2)`` false
     returns uniform in the ``window`` x ``window`` square centred on the true
-    position.  ``rng`` is a ``numpy.random.Generator``.  Returns
-    :class:`HoulesScans`.
+    position.  ``rng`` is a ``numpy.random.Generator``.  With ``outer_window``
+    (m, larger than ``window``) the clutter fills the ``outer_window`` square at
+    the same density: the draws above come first, unchanged, and the returns of
+    the ring between the two squares are drawn after them and appended to each
+    scan, so the target measurements and the inner clutter are those of the same
+    generator without the ring.  Returns :class:`HoulesScans`.
     """
     truth = as_array(truth, "truth", ndim=2)
     if truth.shape[1] < 2:
@@ -166,7 +172,41 @@ def houles_measurements(truth, rng, *, sigma=20.0, pd=1.0, clutter_density=2e-6,
     rows = offsets[:-1] + slot
     target_index[detected] = rows[detected]
     z[rows[detected]] = truth[detected, :2] + noise[detected]
+    if outer_window is not None:
+        return _add_ring(truth, rng, lam, window, outer_window,
+                         HoulesScans(times, z, offsets, target_index))
     return HoulesScans(times, z, offsets, target_index)
+
+
+def _add_ring(truth, rng, lam, window, outer_window, scans):
+    """``scans`` with the clutter of the ring between the ``window`` and
+    ``outer_window`` squares (centred on the truth) appended to each scan: uniform
+    points of the outer square at density ``lam``, those inside the inner square
+    dropped (a thinned Poisson process is Poisson)."""
+    outer = as_positive(outer_window, "outer_window")
+    if not outer > window:
+        raise ValueError(f"outer_window must exceed window = {window:g} m, got {outer:g}")
+    if not lam * outer * outer <= _MAX_CLUTTER_PER_SCAN:
+        raise ValueError(f"clutter_density * outer_window**2 must be at most "
+                         f"{_MAX_CLUTTER_PER_SCAN:g}, got {lam * outer * outer:g}")
+    K = truth.shape[0]
+    n = rng.poisson(lam * outer * outer, size=K)
+    u = (rng.random((int(n.sum()), 2)) - 0.5) * outer
+    keep = np.any(np.abs(u) > window / 2, axis=1)
+    scan = np.repeat(np.arange(K), n)[keep]
+    ring = u[keep] + truth[scan, :2]
+    extra = np.bincount(scan, minlength=K)
+    old = np.diff(scans.offsets)
+    offsets = np.zeros(K + 1, dtype=np.int64)
+    np.cumsum(old + extra, out=offsets[1:])
+    z = np.empty((int(offsets[-1]), 2))
+    for k in range(K):
+        lo, m = offsets[k], old[k]
+        z[lo:lo + m] = scans.z[scans.offsets[k]:scans.offsets[k + 1]]
+        z[lo + m:offsets[k + 1]] = ring[scan == k]
+    shift = offsets[:-1] - scans.offsets[:-1]
+    tidx = np.where(scans.target_index >= 0, scans.target_index + shift, -1)
+    return HoulesScans(scans.times, z, offsets, tidx)
 
 
 # ---------------------------------------------------------------------- the experiment
@@ -199,7 +239,7 @@ class HoulesRun(NamedTuple):
 
 
 def houles_imm_trial(rng, model_sets, *, pd=1.0, pg=0.99, clutter_density=2e-6, window=2000.0,
-                     sigma=20.0, detect_init=True):
+                     sigma=20.0, detect_init=True, outer_window=None):
     """One run of the sec. 4.3 experiment: simulate, then run every IMM-PDAF on the same data.
 
     ``model_sets`` is a sequence of :class:`trackcore.trackers.IMMModelSet`
@@ -208,7 +248,8 @@ def houles_imm_trial(rng, model_sets, *, pd=1.0, pg=0.99, clutter_density=2e-6, 
     seed see the same data whatever the model sets).  Each filter starts from
     the two-point initialisation on the target measurements at t = 0 and 1
     (``detect_init``: they are always detected), then runs on the scans
-    t = 2 .. 90 with the PDA parameters ``pd``, ``pg`` and ``clutter_density``.
+    t = 2 .. 90 with the PDA parameters ``pd``, ``pg`` and ``clutter_density``;
+    ``window`` and ``outer_window`` as in :func:`houles_measurements`.
     Returns :class:`HoulesRun`.
     """
     from ..metrics import nees, nis
@@ -224,7 +265,7 @@ def houles_imm_trial(rng, model_sets, *, pd=1.0, pg=0.99, clutter_density=2e-6, 
     truth = _scan_truth()
     times = np.arange(0.0, HOULES_DURATION + 1.0)
     scans = houles_measurements(truth, rng, sigma=sigma, pd=pd, clutter_density=clutter_density,
-                                window=window, times=times)
+                                window=window, times=times, outer_window=outer_window)
     init = []
     for k in (0, 1):
         i = scans.target_index[k]
@@ -309,6 +350,16 @@ def _errors(pos_err2, name="pos_err2"):
     if e.shape[-1] != HOULES_TIMES.size:
         raise ValueError(f"{name} must have {HOULES_TIMES.size} times (t = 1..90) on its last "
                          f"axis, got shape {e.shape}")
+    return e
+
+
+def _squared_errors(a, name):
+    """A (runs, filters) array of squared errors: non-negative, no NaN."""
+    e = as_array(a, name, ndim=2, finite=False)
+    if np.any(np.isnan(e)) or np.any(e < 0):
+        raise ValueError(f"{name} must hold non-negative squared errors (no NaN)")
+    if e.shape[0] < 2:
+        raise ValueError(f"{name} must hold at least 2 runs, got {e.shape[0]}")
     return e
 
 
@@ -422,6 +473,59 @@ def failure_comparison(failed, a, b):
     # 0/1 runs: Newcombe's paired interval, which keeps a width with no discordant run
     diff = paired_diff_ci(fa.astype(float), fb.astype(float))
     return FailureComparison(diff, only_a, only_b, mcnemar_exact(only_a, only_b))
+
+
+#: The chapter's failure definitions (the registry's ``failure`` reading), in order.
+FAILURE_DEFINITIONS = (
+    "error > 200 m at some time",
+    "error > 300 m at some time",
+    "error > 500 m at some time",
+    "error > 1000 m at some time",
+    "still > 200 m at t = 90 s",
+    "3 gate misses in a row",
+)
+
+
+class FailureCell(NamedTuple):
+    """One failure definition on the runs of one gate (see :func:`failure_grid`; a
+    result record, not exported)."""
+    rate: tuple                      # per filter: failure rate with its interval
+    singer_minus_tom: FailureComparison
+    tom_minus_car: FailureComparison
+    singer_minus_car: FailureComparison
+    failed: np.ndarray               # (runs, filters) bool: the runs that failed
+
+
+def failure_grid(max_err2, last_err2, gate_missed, *, singer=0, car=1, tom=2):
+    """Every failure definition of :data:`FAILURE_DEFINITIONS` on one gate's runs.
+
+    ``max_err2`` and ``last_err2`` (runs, filters): the largest and the last (t = 90 s)
+    squared position error of each run; ``gate_missed`` (runs, filters) bool: the run
+    met the gate-miss definition.  ``singer``, ``car`` and ``tom`` index the filters
+    compared.  Returns ``{definition: FailureCell}``: each filter's rate (exact
+    interval) and the paired differences Singer − TOM, TOM − CAR, Singer − CAR
+    (:func:`failure_comparison`), and the failed runs.
+    """
+    mx = _squared_errors(max_err2, "max_err2")
+    last = _squared_errors(last_err2, "last_err2")
+    if last.shape != mx.shape:
+        raise ValueError(f"max_err2 and last_err2 must have one shape (runs, filters), "
+                         f"got {mx.shape} and {last.shape}")
+    miss = np.asarray(gate_missed)
+    if miss.dtype != np.bool_ or miss.shape != mx.shape:
+        raise ValueError(f"gate_missed must be a bool array of shape {mx.shape}, got "
+                         f"{miss.dtype} {miss.shape}")
+    failed = {d: mx > _squared(h) for d, h in zip(FAILURE_DEFINITIONS[:4],
+                                                   (200.0, 300.0, 500.0, 1000.0))}
+    failed[FAILURE_DEFINITIONS[4]] = last > _squared(200.0)
+    failed[FAILURE_DEFINITIONS[5]] = miss
+    out = {}
+    for d, fl in failed.items():
+        rates = tuple(rate_ci(fl[:, f], fl.shape[0]) for f in range(fl.shape[1]))
+        out[d] = FailureCell(rates, failure_comparison(fl, singer, tom),
+                             failure_comparison(fl, tom, car),
+                             failure_comparison(fl, singer, car), fl)
+    return out
 
 
 def _window_index(window):
