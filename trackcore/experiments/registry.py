@@ -367,4 +367,5 @@ from . import (
     tbd_extensions,  # noqa: E402,F401  (TBD chapter, extensions page)
     tbd_tracking,  # noqa: E402,F401  (the TBD chapter's tracking experiments)
     tom_cause,  # noqa: E402,F401  (001-05: registers tom-cause-*)
+    fjpda_readings,  # noqa: E402,F401  (004: the readings at 200 seeds, issue 29)
 )
