@@ -26,12 +26,18 @@ from ._core import Experiment, register
 from .registry import _Config
 
 __all__ = [
+    "CELLS",
     "FALSE_SOURCES",
     "FjpdaReadingsConfig",
     "MOT_VARIANTS",
     "READINGS_SCENES",
     "READING_VARIANTS",
     "S3_VARIANTS",
+    "SCENE_KEYS",
+    "NoInterval",
+    "estimate",
+    "per_run",
+    "compare",
 ]
 
 #: tracker label -> (variant, keywords of matched_config): the reading cells.
@@ -138,7 +144,7 @@ def _extract(out, config):
 
 
 FJPDA_READINGS_SEED = 20160325 + 300
-_NB = "book/004-feature-jpda/05-scene-results.ipynb"
+_NB = "book/004-feature-jpda/07-extensions.ipynb"
 for _i, (_key, (_scene, _jitter, _extras)) in enumerate(READINGS_SCENES.items()):
     _config = FjpdaReadingsConfig(_scene, _jitter, _extras)
     register(Experiment(
@@ -147,3 +153,77 @@ for _i, (_key, (_scene, _jitter, _extras)) in enumerate(READINGS_SCENES.items())
                      f"{', '.join(_config.variants())} on the same detections"),
         trial=readings_trial, call=_call, extract=_extract, config=_config,
         seed=FJPDA_READINGS_SEED + _i, runs=200, version="1", notebook=_NB))
+
+
+# ---------------------------------------------------------------- analysis (05)
+#: the reading cells run: glue suffix -> tracker label (canvas/sliding x updated/fixed)
+CELLS = {"cu": "FJPDA", "cf": "FJPDA, canvas, fixed",
+         "su": "FJPDA, sliding, updated", "sf": "FJPDA, sliding, fixed"}
+#: experiment key -> the short scene name of the chapter's glue keys
+SCENE_KEYS = {"glare": "glare", "side-by-side": "side", "occlusion": "occl",
+              "s1-jitter3": "j3", "s1-jitter5": "j5", "s3-jitter5": "s3"}
+
+
+class NoInterval(float):
+    """A mean (difference) whose runs are too few or (nearly) all equal: no interval
+    exists, and it formats as ``"<value> (no interval)"`` (read as undecided); its
+    ``lo`` and ``hi`` are NaN, so no comparison with them holds."""
+
+    lo = hi = float("nan")
+
+    @property
+    def value(self):
+        return float(self)
+
+    def __format__(self, fmt):
+        return f"{format(float(self), fmt)} (no interval)"
+
+
+def estimate(interval, *values):
+    """``interval(*values)`` (an interval of :mod:`trackcore.stats`, e.g. ``mean_ci``
+    or ``paired_diff_ci``), or, where it refuses the runs (fewer than ``MIN_RUNS``,
+    or (nearly) all equal), the point value as a :class:`NoInterval` (a mean, or for
+    two samples the mean difference)."""
+    try:
+        return interval(*values)
+    except ValueError:
+        v = [np.asarray(x, float) for x in values]
+        return NoInterval(v[0].mean() if len(v) == 1 else (v[0] - v[1]).mean())
+
+
+def per_run(res, tracker, measure):
+    """Per-run values of one tracker in a readings store: ``"tmr"`` (maintained over
+    eligible frames; a run without an eligible frame counts 0 of 0 as NaN and is
+    refused), ``"coverage"``, ``"events_same"`` (events per frame with the feature
+    gate minus those of the same tracks without it), or a stored field
+    (``false_tracks``, ``false_glare``, ``mm_idf1``, ...)."""
+    def col(f):
+        return np.asarray(res[f"{tracker}.{f}"], float)
+
+    if measure in ("tmr", "coverage"):
+        den = col("tmr_den")
+        if np.any(den <= 0):
+            raise ValueError(f"{tracker}: a run without an eligible frame has no {measure}")
+        return col("tmr_num" if measure == "tmr" else "coverage_num") / den
+    if measure == "events_same":
+        return col("mean_events") - col("mean_events_kin")
+    return col(measure)
+
+
+def compare(x, y, names=("A", "B"), lower_is_better=True):
+    """:func:`~trackcore.scenarios.feature_metrics.paired_comparison` of per-run
+    values, except where no interval exists (fewer than ``MIN_RUNS`` runs, or the
+    paired differences (nearly) all equal): then the difference is a
+    :class:`NoInterval` and the verdict ``"no interval"``, never a tie."""
+    from ..scenarios.feature_metrics import PairedComparison, paired_comparison
+    from ..stats import mcnemar_exact
+
+    try:
+        return paired_comparison(x, y, names, lower_is_better)
+    except ValueError:
+        x, y = np.asarray(x, float), np.asarray(y, float)
+        d = (x - y) if lower_is_better else (y - x)
+        a_b, b_b = int(np.sum(d < 0)), int(np.sum(d > 0))
+        return PairedComparison(*names, float(x.mean()), float(y.mean()),
+                                NoInterval(np.mean(x - y)), a_b, b_b,
+                                mcnemar_exact(a_b, b_b), "no interval")

@@ -284,11 +284,11 @@ def clear_mot_metrics(scene, reports, match_gate=10.0):
     import motmetrics as mm
 
     check_scene(scene)
-    match_gate = as_positive(match_gate, "match_gate")
     veh = np.nonzero(scene.is_vehicle)[0]
     K = scene.xy.shape[0]
-    if len(reports) < K:
-        raise ValueError(f"reports must hold at least K = {K} frames, got {len(reports)}")
+    # the same checks of the arguments as the per-frame matching
+    match_tracks(scene.xy[:, veh], scene.present[:, veh], reports, match_gate)
+    match_gate = float(match_gate)
     acc = mm.MOTAccumulator(auto_id=True)
     for k in range(K):
         objs = [int(o) for o in veh if scene.present[k, o]]
