@@ -1076,6 +1076,12 @@ def _ncc():
 
 
 @example()
+def ncc_sliding():
+    from trackcore.detection import vehicle_sprite as vs
+    return call(vs("van")[1], vs("sedan")[1], 2, "mask")
+
+
+@example()
 def ncc_matrix():
     from trackcore.detection import vehicle_sprite as vs
     m = [vs("van")[1], vs("sedan")[1]]
@@ -1747,6 +1753,11 @@ def match_tracks():
 
 @example()
 def scene_metrics():
+    return call(scene(), _reports(), 10.0)
+
+
+@example()
+def clear_mot_metrics():
     return call(scene(), _reports(), 10.0)
 
 

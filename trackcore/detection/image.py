@@ -43,6 +43,7 @@ __all__ = [
     "ncc",
     "ncc_reference",
     "ncc_matrix",
+    "ncc_sliding",
     "mask_iou",
 ]
 
@@ -621,6 +622,73 @@ def _mask_ncc(A, B, s=4):
     """:func:`ncc` of two boolean masks already checked by the caller (the tracker
     checks every mask once per frame)."""
     return float(_ncc_patches_kernel(A.astype(np.float64), B.astype(np.float64), 0.0, 0.0, s))
+
+
+@nb.njit(cache=True)
+def _sliding_kernel(A, B, s):
+    """:func:`ncc_sliding` of two float64 patches (zero fill)."""
+    ha, wa = A.shape
+    hb, wb = B.shape
+    H = max(ha, hb) + 2 * s
+    W = max(wa, wb) + 2 * s
+    cb = np.zeros((H, W))
+    rb, qb = (H - hb) // 2, (W - wb) // 2
+    for i in range(hb):
+        for j in range(wb):
+            cb[rb + i, qb + j] = B[i, j]
+    n = ha * wa
+    sa = 0.0
+    for i in range(ha):
+        for j in range(wa):
+            sa += A[i, j]
+    ma = sa / n
+    saa = 0.0
+    for i in range(ha):
+        for j in range(wa):
+            saa += (A[i, j] - ma) ** 2
+    best = 0.0
+    for r0 in range(H - ha + 1):
+        for c0 in range(W - wa + 1):
+            sw = 0.0
+            for i in range(ha):
+                for j in range(wa):
+                    sw += cb[r0 + i, c0 + j]
+            mw = sw / n
+            sww = 0.0
+            sab = 0.0
+            for i in range(ha):
+                for j in range(wa):
+                    d = cb[r0 + i, c0 + j] - mw
+                    sww += d * d
+                    sab += (A[i, j] - ma) * d
+            den = math.sqrt(saa * sww)
+            if den > 0:
+                r = sab / den
+                if r > best:
+                    best = r
+    return best
+
+
+def ncc_sliding(A, B, s=4, kind="mask"):
+    """Template matching by normalised cross-correlation with local normalisation
+    (Lewis; OpenCV's ``TM_CCOEFF_NORMED``): the template ``A`` slides over every
+    position of the search image, ``B`` centred on a canvas of size
+    (max h + 2s) x (max w + 2s) filled with 0 (``kind="mask"``) or with the median of
+    its border rows (``kind="grey"``); at each position the NCC is taken over the
+    template's window only, each side zero-meaned over that window; the maximum
+    over the positions (a window of constant values scores 0).  Unlike :func:`ncc`,
+    a measurement larger than the template (two merged blobs) is searched
+    wholly, and pixels outside the best window do not lower the score."""
+    A, B, s = _ncc_inputs(A, B, s, kind)
+    fb = _fill_value(B, kind)
+    if kind == "grey":
+        B = B - fb
+    return float(_sliding_kernel(A, B, s))
+
+
+def _mask_ncc_sliding(A, B, s=4):
+    """:func:`ncc_sliding` of two boolean masks already checked by the caller."""
+    return float(_sliding_kernel(A.astype(np.float64), B.astype(np.float64), s))
 
 
 def ncc_reference(A, B, s=4, kind="mask"):

@@ -369,5 +369,6 @@ from . import (
     tbd_grid,  # noqa: E402,F401  (TBD chapter, the verdict grid, 003-06)
     tbd_tracking,  # noqa: E402,F401  (the TBD chapter's tracking experiments)
     tom_cause,  # noqa: E402,F401  (001-05: registers tom-cause-*)
+    fjpda_readings,  # noqa: E402,F401  (004: the readings at 200 seeds, issue 29)
 )
 from . import tom_pg1  # noqa: E402,F401  (001-03: tom-imm-houles-pg1, no gate)

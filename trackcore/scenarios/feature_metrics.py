@@ -11,10 +11,15 @@ tracks, gated at ``match_gate`` (10 px).  From the matches:
 * coverage: as TMR, any matched track counts;
 * false tracks: tracks that were confirmed and matched to no vehicle in at
   least half of their confirmed (confirmed or memory) frames; each is
-  attributed to the clutter object (bar, foliage) nearest to it, within
-  ``match_gate``, in most of those frames, else to ``"other"`` (speckle,
-  fragments);
-* CLEAR-MOT ID switches, fragmentations, MOTA and MOTP;
+  attributed to the clutter object (bar, foliage, glare) nearest to it, within
+  ``match_gate``, in most of those frames; failing a clutter object, to
+  ``"vehicle"`` if a vehicle lies within ``match_gate`` (a duplicate of a
+  vehicle's track, or a fragment of its blob), else to ``"other"`` (speckle);
+* ID switches, fragmentations, MOTA and MOTP after CLEAR-MOT, but from the
+  per-frame matching above, which has no continuity rule (a still-valid match is
+  not kept), so a nearby false or duplicate track that is momentarily closer takes
+  the match and counts switches; :func:`clear_mot_metrics` gives the standard
+  CLEAR-MOT and identity measures computed by py-motmetrics;
 * crossing outcome (kept / swap / break): the pair's track IDs at the two ends of
   the scene's score window (10 frames either side of a crossing);
 * follower: frames from the follower's full entry until it has its own
@@ -40,6 +45,7 @@ from ..stats import Estimate, mcnemar_exact, paired_diff_ci
 from .feature_scenes import check_scene
 
 __all__ = ["SceneMetrics", "match_tracks", "scene_metrics", "vehicle_mask_iou",
+           "MOT_METRICS", "clear_mot_metrics",
            "SceneTrial", "scene_trial", "scene_trials", "scene_run",
            "PairedComparison", "paired_comparison", "crossing_trial"]
 
@@ -230,10 +236,12 @@ def scene_metrics(scene, reports, match_gate=10.0):
 
 def _false_track_sources(scene, reports, false_ids, match_gate):
     """Attribute each false track to the clutter object nearest to it (within
-    ``match_gate``) in most of its reported frames, else to ``"other"``."""
+    ``match_gate``) in most of its reported frames; failing one, to ``"vehicle"``
+    if a vehicle lies within ``match_gate``; else to ``"other"``."""
     if not false_ids:
         return ()
     clutter = np.nonzero(~np.asarray(scene.is_vehicle))[0]
+    vehicles = np.nonzero(np.asarray(scene.is_vehicle))[0]
     votes = {t: {} for t in false_ids}
     for k, rep in enumerate(reports):
         for s in rep.tracks:
@@ -246,12 +254,55 @@ def _false_track_sources(scene, reports, false_ids, match_gate):
                 ok = scene.present[k, clutter] & (d <= match_gate)
                 if ok.any():
                     src = scene.names[clutter[np.argmin(np.where(ok, d, np.inf))]]
+            if src == "other" and len(vehicles):
+                v = scene.xy[k, vehicles]
+                dv = np.hypot(v[:, 0] - s.x, v[:, 1] - s.y)
+                if np.any(scene.present[k, vehicles] & (dv <= match_gate)):
+                    src = "vehicle"
             votes[s.tid][src] = votes[s.tid].get(src, 0) + 1
     counts = {}
     for v in votes.values():
         best = max(sorted(v), key=v.get)
         counts[best] = counts.get(best, 0) + 1
     return tuple(sorted(counts.items()))
+
+
+#: The measures of :func:`clear_mot_metrics` (py-motmetrics names).
+MOT_METRICS = ("mota", "motp", "num_switches", "num_fragmentations", "idf1",
+               "mostly_tracked", "mostly_lost", "num_unique_objects")
+
+
+def clear_mot_metrics(scene, reports, match_gate=10.0):
+    """CLEAR-MOT (MOTA, MOTP in px, ID switches, fragmentations), IDF1 and the
+    mostly tracked / mostly lost counts of one tracker run over one scene, computed
+    by py-motmetrics: the vehicles present in a frame are the objects, the
+    confirmed and memory tracks the hypotheses, matched on Euclidean distance up to
+    ``match_gate`` px.  Unlike :func:`match_tracks`, CLEAR-MOT keeps a frame's
+    match if it is still within the gate at the next frame, so a momentarily closer
+    track does not take it.  Returns ``{name: value}`` for :data:`MOT_METRICS`
+    (MOTP in px, not squared)."""
+    import motmetrics as mm
+
+    check_scene(scene)
+    veh = np.nonzero(scene.is_vehicle)[0]
+    K = scene.xy.shape[0]
+    # the same checks of the arguments as the per-frame matching
+    match_tracks(scene.xy[:, veh], scene.present[:, veh], reports, match_gate)
+    match_gate = float(match_gate)
+    acc = mm.MOTAccumulator(auto_id=True)
+    for k in range(K):
+        objs = [int(o) for o in veh if scene.present[k, o]]
+        tr = [s for s in reports[k].tracks if s.status in _REPORTED]
+        D = np.full((len(objs), len(tr)), np.nan)
+        if objs and tr:
+            P = np.array([[s.x, s.y] for s in tr])
+            X = scene.xy[k, objs]
+            D = np.hypot(X[:, None, 0] - P[None, :, 0], X[:, None, 1] - P[None, :, 1])
+            D[D > match_gate] = np.nan
+        acc.update(objs, [s.tid for s in tr], D)
+    mh = mm.metrics.create()
+    out = mh.compute(acc, metrics=list(MOT_METRICS), name="run").iloc[0]
+    return {name: float(out[name]) for name in MOT_METRICS}
 
 
 def vehicle_mask_iou(scene, masks, margin=3):

@@ -44,6 +44,7 @@ from ..association.jpda import feasible_event_count, jpda_clusters, jpda_margina
 from ..association.pda import pda_update_kernel
 from ..filters.kalman import cholesky_lower_kernel, kf_predict_kernel
 from ..detection.image import _mask_ncc as ncc
+from ..detection.image import _mask_ncc_sliding
 from ..models.measurement import position_matrix
 from ..models.motion import cv_process_noise, cv_transition
 
@@ -62,6 +63,8 @@ __all__ = [
 VARIANTS = ("GNN", "JPDA", "FJPDA-gate", "FJPDA")
 TSI_SOURCES = ("outside_gates", "unvalidated")
 RHO_WEIGHTS = ("raw", "normalised")
+CORRELATIONS = ("canvas", "sliding")
+TEMPLATE_SOURCES = ("first", "fully_visible")
 
 
 class TrackStatus:
@@ -114,7 +117,17 @@ class JPDATrackerConfig:
       measurements validated by the same track;
     * ``template_guard`` (True): a template update must also correlate at
       least c_I with the track's first template (a drift guard);
-      ``template_update=False`` keeps the first template.
+      ``template_update=False`` keeps the first template;
+    * ``correlation`` (``"canvas"``): rho is :func:`~trackcore.detection.ncc`, both
+      patches centred on a common canvas and normalised over it; ``"sliding"`` is
+      :func:`~trackcore.detection.ncc_sliding`, the template slid over the
+      measurement's patch with local normalisation (the drift guard uses the same);
+    * ``template_from`` (``"first"``): a track's first template is the silhouette
+      that started it; ``"fully_visible"``: while the track's template touches the
+      image border (:func:`_touches_edge`), it is replaced every frame
+      by the silhouette of the nearest kinematically validated measurement (outside
+      memory), until one away from the border is taken; the drift guard is
+      anchored to that one.
     """
     variant: str = "FJPDA"
     sigma_a: float = 0.3            # DWNA acceleration std, px/frame^2
@@ -137,12 +150,16 @@ class JPDATrackerConfig:
     tsi_from: str = "outside_gates"
     memory_frames: int = 2
     rho_weight: str = "raw"
+    correlation: str = "canvas"
+    template_from: str = "first"
     feature_lr: tuple | None = None  # (a1, b1, a0, b0): FJPDA weights by the Beta likelihood
                                      # ratio g1(rho)/g0(rho) instead of rho (extension)
 
     def __post_init__(self):
         for name, allowed in (("variant", VARIANTS), ("model", ("cv", "rw")),
-                              ("tsi_from", TSI_SOURCES), ("rho_weight", RHO_WEIGHTS)):
+                              ("tsi_from", TSI_SOURCES), ("rho_weight", RHO_WEIGHTS),
+                              ("correlation", CORRELATIONS),
+                              ("template_from", TEMPLATE_SOURCES)):
             if getattr(self, name) not in allowed:
                 raise ValueError(f"{name} must be one of {allowed}, "
                                  f"got {getattr(self, name)!r}")
@@ -242,6 +259,7 @@ class _Track:
     template: np.ndarray
     born: int
     template0: np.ndarray | None = None
+    whole: bool = True            # the template does not touch its patch's edge
     status: str = TrackStatus.TENTATIVE
     hits: int = 0                 # consecutive hits in the current state
     misses: int = 0               # consecutive misses
@@ -272,6 +290,7 @@ class JPDATracker:
         self.prev_masks: list = []
         self.next_id = 1
         self.k = 0
+        self._rho = _mask_ncc_sliding if self.cfg.correlation == "sliding" else ncc
 
     # ------------------------------------------------------------ helpers
     def _new_track(self, zc, zp, mask):
@@ -282,7 +301,8 @@ class JPDATracker:
         else:
             x = np.array(zc, float)
             P = R.copy()
-        t = _Track(self.next_id, x, P, mask, self.k, template0=mask)
+        t = _Track(self.next_id, x, P, mask, self.k, template0=mask,
+                   whole=self.cfg.template_from == "first" or not _touches_edge(mask))
         self.next_id += 1
         return t
 
@@ -301,6 +321,7 @@ class JPDATracker:
         L = np.zeros((2, 2))
         gmask = np.zeros(m, np.bool_)
         d2 = np.empty(m)
+        nearest = np.full(T, -1)
         for i, tr in enumerate(self.tracks):
             # the tracker validated its inputs; it calls the foundation kernels directly
             x = np.empty(nx)
@@ -317,13 +338,15 @@ class JPDATracker:
                     raise ValueError("innovation covariance lost positive definiteness")
                 mahalanobis_gate_kernel(z, zpred, L, c.gamma, -1, gmask, d2)
                 valid_kin[:, i] = gmask
+                if not tr.whole and gmask.any():
+                    nearest[i] = int(np.argmin(np.where(gmask, d2, np.inf)))
                 if gmask.any():
                     lik[gmask, i] = np.exp(-0.5 * d2[gmask]) / (
                         2 * np.pi * L[0, 0] * L[1, 1])
         rho = np.zeros((m, T))
         if c.uses_features:
             for j, i in zip(*np.nonzero(valid_kin)):
-                rho[j, i] = ncc(self.tracks[i].template, masks[j])
+                rho[j, i] = self._rho(self.tracks[i].template, masks[j])
             valid = valid_kin & (rho >= c.c_I)
         else:
             valid = valid_kin
@@ -391,11 +414,14 @@ class JPDATracker:
             tr.validated = frozenset(sel.tolist())
             gx, gy = math.sqrt(c.gamma * S_all[i][0, 0]), math.sqrt(c.gamma * S_all[i][1, 1])
             tr.gate = (gx, gy)
-            if c.uses_features and c.template_update and len(sel) and not was_memory:
+            if nearest[i] >= 0 and not was_memory:
+                tr.template = tr.template0 = masks[nearest[i]]
+                tr.whole = not _touches_edge(tr.template)
+            elif c.uses_features and c.template_update and len(sel) and not was_memory:
                 jb = sel[np.argmax(beta[sel + 1, i])]
                 if beta[jb + 1, i] >= 0.5 and rho[jb, i] >= c.c_I and (
                         not c.template_guard or masks[jb] is tr.template0
-                        or ncc(tr.template0, masks[jb]) >= c.c_I):
+                        or self._rho(tr.template0, masks[jb]) >= c.c_I):
                     tr.template = masks[jb]
         assoc_ms = 1e3 * (time.perf_counter() - t0)
         # track management
@@ -511,6 +537,19 @@ class JPDATracker:
             return []
         self.tracks = [t for t in self.tracks if t.tid not in doomed]
         return [(tid, why) for tid, why in doomed.items()]
+
+
+def _touches_edge(mask):
+    """Whether a blob lies at the image border: its patch is its tight box grown by
+    the same margin on every side, cut at the image border, so the margins of the
+    silhouette to the patch's edges are unequal exactly when the patch was cut (the
+    blob lies within the margin of the border)."""
+    rows = np.nonzero(mask.any(axis=1))[0]
+    cols = np.nonzero(mask.any(axis=0))[0]
+    if len(rows) == 0:
+        return True
+    gaps = (rows[0], mask.shape[0] - 1 - rows[-1], cols[0], mask.shape[1] - 1 - cols[-1])
+    return min(gaps) < max(gaps)
 
 
 def _check_detections(detections, name):

@@ -1,0 +1,229 @@
+"""Feature-JPDA chapter (004), the readings at 200 seeds per scene (issue 29).
+
+One experiment per ambiguity scene, ``fjpda-readings-<key>``, each with 200 runs on
+fresh master seeds (``FJPDA_READINGS_SEED + i`` for the i-th scene of
+:data:`READINGS_SCENES`).  Every run renders the scene once, segments it once by ViBe
+and runs, on the same detections, JPDA and FJPDA in the four cells of the declared
+readings ``correlation`` (canvas, sliding) x ``template`` (updated with guard, fixed
+first) (:data:`READING_VARIANTS`); the S3 experiment adds the ablations of the S3
+loss (:data:`S3_VARIANTS`: the first fully visible template, and c_I from 0.4 to
+0.8).  A row holds, per tracker, the false tracks by source (the attribution of
+:func:`~trackcore.scenarios.feature_metrics.scene_metrics`), the track maintenance
+counts, our ID-switch count and the joint events; for :data:`MOT_VARIANTS` also the
+CLEAR-MOT and identity measures of py-motmetrics
+(:func:`~trackcore.scenarios.feature_metrics.clear_mot_metrics`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..scenarios.feature_metrics import MOT_METRICS, clear_mot_metrics, scene_metrics
+from ._checks import check_names
+from ._core import Experiment, register
+from .registry import _Config
+
+__all__ = [
+    "CELLS",
+    "FALSE_SOURCES",
+    "FjpdaReadingsConfig",
+    "MOT_VARIANTS",
+    "READINGS_SCENES",
+    "READING_VARIANTS",
+    "S3_VARIANTS",
+    "SCENE_KEYS",
+    "NoInterval",
+    "estimate",
+    "per_run",
+    "compare",
+]
+
+#: tracker label -> (variant, keywords of matched_config): the reading cells.
+READING_VARIANTS = {
+    "JPDA": ("JPDA", {}),
+    "FJPDA": ("FJPDA", {}),
+    "FJPDA, canvas, fixed": ("FJPDA", {"template_update": False}),
+    "FJPDA, sliding, updated": ("FJPDA", {"correlation": "sliding"}),
+    "FJPDA, sliding, fixed": ("FJPDA", {"correlation": "sliding",
+                                        "template_update": False}),
+}
+#: the ablations of the S3 loss (``extras=("s3",)``).
+S3_VARIANTS = {
+    "FJPDA, canvas, first fully visible": (
+        "FJPDA", {"template_update": False, "template_from": "fully_visible"}),
+    **{f"FJPDA, c_I {c:.1f}": ("FJPDA", {"c_I": c}) for c in (0.4, 0.5, 0.7, 0.8)},
+}
+#: the trackers whose runs are also scored by py-motmetrics.
+MOT_VARIANTS = ("JPDA", "FJPDA", "FJPDA, sliding, fixed")
+#: the sources a false track is attributed to (a scene has only some of them).
+FALSE_SOURCES = ("glare", "bar", "foliage", "vehicle", "other")
+_FIELDS = {"tmr_num": np.int64, "tmr_den": np.int64, "coverage_num": np.int64,
+           "false_tracks": np.int64, "id_switches": np.int64,
+           "mean_events": np.float64, "mean_events_kin": np.float64,
+           "valid_removed": np.float64}
+_SCENES = ("jitter", "glare", "side_by_side", "occlusion", "S3")
+#: experiment key -> (scene, camera jitter in px, extras)
+READINGS_SCENES = {
+    "glare": ("glare", 5.0, ()),
+    "s3-jitter5": ("S3", 5.0, ("s3",)),
+    "occlusion": ("occlusion", 3.0, ()),
+    "side-by-side": ("side_by_side", 5.0, ()),
+    "s1-jitter5": ("jitter", 5.0, ()),
+    "s1-jitter3": ("jitter", 3.0, ()),
+}
+
+
+@dataclass(frozen=True)
+class FjpdaReadingsConfig(_Config):
+    """One scene of the readings runs: ``scene`` (a scene of
+    :func:`~trackcore.scenarios.feature_scenes.render_scene` among ``jitter``,
+    ``glare``, ``side_by_side``, ``occlusion``, ``S3``), camera ``jitter`` (px, the
+    trackers matched to it) and ``extras`` (``("s3",)`` adds :data:`S3_VARIANTS`)."""
+
+    scene: str
+    jitter: float
+    extras: tuple = ()
+
+    _KINDS = {"scene": str, "jitter": float, "extras": tuple}  # noqa: RUF012
+
+    def __post_init__(self):
+        if not isinstance(self.scene, str) or self.scene not in _SCENES:
+            raise ValueError(f"scene must be one of {_SCENES}, got {self.scene!r}")
+        j = self.jitter
+        if isinstance(j, bool) or not isinstance(j, (int, float, np.floating)) \
+                or not math.isfinite(j) or j < 0:
+            raise ValueError(f"jitter must be a finite number >= 0 (px), got {j!r}")
+        check_names(self.extras, "extras", ("s3",), "extra", empty=True)
+
+    def variants(self) -> dict:
+        """``{label: JPDATrackerConfig}``: the reading cells, then the extras'."""
+        from ..trackers.jpda_tracker import matched_config
+
+        table = dict(READING_VARIANTS)
+        if "s3" in self.extras:
+            table.update(S3_VARIANTS)
+        return {label: matched_config(v, float(self.jitter), **kw)
+                for label, (v, kw) in table.items()}
+
+
+def readings_trial(rng, scene_name, variants, jitter):
+    """One run: ``{label: (SceneMetrics, py-motmetrics dict or None)}`` of every
+    tracker of ``variants`` on the same rendered and segmented scene."""
+    from ..scenarios.feature_metrics import scene_run
+
+    scene, _, reports = scene_run(rng, scene_name, variants, jitter=jitter)
+    return {label: (scene_metrics(scene, reps),
+                    clear_mot_metrics(scene, reps) if label in MOT_VARIANTS else None)
+            for label, reps in reports.items()}
+
+
+def _call(config):
+    return (config.scene, config.variants(), float(config.jitter)), {}
+
+
+def _extract(out, config):
+    """Per tracker ``V``: ``V.<field>``, ``V.false_<source>`` and, for
+    :data:`MOT_VARIANTS`, ``V.mm_<measure>``."""
+    row = {}
+    for label, (m, mot) in out.items():
+        for field, dtype in _FIELDS.items():
+            row[f"{label}.{field}"] = dtype(getattr(m, field))
+        src = dict(m.false_sources)
+        unknown = set(src) - set(FALSE_SOURCES)
+        if unknown:
+            raise ValueError(f"false-track sources {sorted(unknown)} are not among "
+                             f"FALSE_SOURCES {FALSE_SOURCES}")
+        for s in FALSE_SOURCES:
+            row[f"{label}.false_{s}"] = np.int64(src.get(s, 0))
+        if mot is not None:
+            for name in MOT_METRICS:
+                row[f"{label}.mm_{name}"] = np.float64(mot[name])
+    return row
+
+
+FJPDA_READINGS_SEED = 20160325 + 300
+_NB = "book/004-feature-jpda/07-extensions.ipynb"
+for _i, (_key, (_scene, _jitter, _extras)) in enumerate(READINGS_SCENES.items()):
+    _config = FjpdaReadingsConfig(_scene, _jitter, _extras)
+    register(Experiment(
+        name=f"fjpda-readings-{_key}",
+        description=(f"Feature-JPDA chapter, readings at 200 seeds, {_key}: "
+                     f"{', '.join(_config.variants())} on the same detections"),
+        trial=readings_trial, call=_call, extract=_extract, config=_config,
+        seed=FJPDA_READINGS_SEED + _i, runs=200, version="1", notebook=_NB))
+
+
+# ---------------------------------------------------------------- analysis (05)
+#: the reading cells run: glue suffix -> tracker label (canvas/sliding x updated/fixed)
+CELLS = {"cu": "FJPDA", "cf": "FJPDA, canvas, fixed",
+         "su": "FJPDA, sliding, updated", "sf": "FJPDA, sliding, fixed"}
+#: experiment key -> the short scene name of the chapter's glue keys
+SCENE_KEYS = {"glare": "glare", "side-by-side": "side", "occlusion": "occl",
+              "s1-jitter3": "j3", "s1-jitter5": "j5", "s3-jitter5": "s3"}
+
+
+class NoInterval(float):
+    """A mean (difference) whose runs are too few or (nearly) all equal: no interval
+    exists, and it formats as ``"<value> (no interval)"`` (read as undecided); its
+    ``lo`` and ``hi`` are NaN, so no comparison with them holds."""
+
+    lo = hi = float("nan")
+
+    @property
+    def value(self):
+        return float(self)
+
+    def __format__(self, fmt):
+        return f"{format(float(self), fmt)} (no interval)"
+
+
+def estimate(interval, *values):
+    """``interval(*values)`` (an interval of :mod:`trackcore.stats`, e.g. ``mean_ci``
+    or ``paired_diff_ci``), or, where it refuses the runs (fewer than ``MIN_RUNS``,
+    or (nearly) all equal), the point value as a :class:`NoInterval` (a mean, or for
+    two samples the mean difference)."""
+    try:
+        return interval(*values)
+    except ValueError:
+        v = [np.asarray(x, float) for x in values]
+        return NoInterval(v[0].mean() if len(v) == 1 else (v[0] - v[1]).mean())
+
+
+def per_run(res, tracker, measure):
+    """Per-run values of one tracker in a readings store: ``"tmr"`` (maintained over
+    eligible frames; a run without an eligible frame counts 0 of 0 as NaN and is
+    refused), ``"coverage"``, ``"events_same"`` (events per frame with the feature
+    gate minus those of the same tracks without it), or a stored field
+    (``false_tracks``, ``false_glare``, ``mm_idf1``, ...)."""
+    def col(f):
+        return np.asarray(res[f"{tracker}.{f}"], float)
+
+    if measure in ("tmr", "coverage"):
+        den = col("tmr_den")
+        if np.any(den <= 0):
+            raise ValueError(f"{tracker}: a run without an eligible frame has no {measure}")
+        return col("tmr_num" if measure == "tmr" else "coverage_num") / den
+    if measure == "events_same":
+        return col("mean_events") - col("mean_events_kin")
+    return col(measure)
+
+
+def compare(x, y, names=("A", "B"), lower_is_better=True):
+    """:func:`~trackcore.scenarios.feature_metrics.paired_comparison` of per-run
+    values, except where no interval exists (fewer than ``MIN_RUNS`` runs, or the
+    paired differences (nearly) all equal): then the difference is a
+    :class:`NoInterval` and the verdict ``"no interval"``, never a tie."""
+    from ..scenarios.feature_metrics import PairedComparison, paired_comparison
+    from ..stats import mcnemar_exact
+
+    try:
+        return paired_comparison(x, y, names, lower_is_better)
+    except ValueError:
+        x, y = np.asarray(x, float), np.asarray(y, float)
+        d = (x - y) if lower_is_better else (y - x)
+        a_b, b_b = int(np.sum(d < 0)), int(np.sum(d > 0))
+        return PairedComparison(*names, float(x.mean()), float(y.mean()),
+                                NoInterval(np.mean(x - y)), a_b, b_b,
+                                mcnemar_exact(a_b, b_b), "no interval")
