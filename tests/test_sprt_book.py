@@ -1,0 +1,48 @@
+"""The SPRT chapter's private helpers (trackcore.scenarios._sprt_book)."""
+
+import numpy as np
+import pytest
+
+from trackcore.models import modified_polar_F, modified_polar_f
+from trackcore.scenarios import _sprt_book as sb
+
+
+def test_private_module_exports_nothing():
+    import trackcore.scenarios as sc
+
+    assert sb.__all__ == [], "the private module re-exports something"
+    assert not hasattr(sc, "central_jacobian"), "helper leaked into scenarios"
+
+
+def test_central_jacobian_of_a_linear_map_is_its_matrix():
+    A = np.array([[1.0, 2.0, -1.0], [0.5, 0.0, 3.0]])
+    J = sb.central_jacobian(lambda v: A @ v, [0.3, -2.0, 1.0], [1e-3, 1.0, 0.1])
+    assert J.shape == (2, 3), f"shape {J.shape}"
+    assert np.allclose(J, A, atol=1e-12), f"{J} != {A}"
+
+
+def test_central_jacobian_is_the_central_difference_bit_for_bit():
+    f = lambda v: np.array([np.sin(v[0]) * v[1], v[0] ** 3])
+    x, h = np.array([0.7, 1.3]), 1e-4
+    J = sb.central_jacobian(f, x, [h, h])
+    e = np.array([h, 0.0])
+    assert np.array_equal(J[:, 0], (f(x + e) - f(x - e)) / (2 * h)), "column 0"
+    exact = np.array([[np.cos(0.7) * 1.3, np.sin(0.7)], [3 * 0.7**2, 0.0]])
+    assert np.allclose(J, exact, rtol=1e-7), f"{J} far from {exact}"
+
+
+def test_central_jacobian_matches_modified_polar_F():
+    xb, ub = np.array([0.4, 1.0 / 1500.0]), np.array([10.0, -20.0])
+    Jn = sb.central_jacobian(
+        lambda v: modified_polar_f(v, ub), xb, [1e-6, 1e-6 * xb[1]]
+    )
+    F = modified_polar_F(xb, ub)
+    assert np.allclose(Jn, F, rtol=1e-5, atol=1e-9), f"{Jn} != {F}"
+
+
+@pytest.mark.parametrize(
+    "x, steps", [([[1.0]], [1.0]), ([1.0, 2.0], [1.0]), ([1.0], [0.0]), ([1.0], [-1.0])]
+)
+def test_central_jacobian_rejects_bad_input(x, steps):
+    with pytest.raises(ValueError, match="x must|steps must"):
+        sb.central_jacobian(lambda v: v, x, steps)
