@@ -1,0 +1,68 @@
+"""Presentation helpers of the TOM-IMM chapter (book/001-tom-imm), so that the
+notebooks show the checks and experiments and not the bookkeeping.
+
+This module is private (its name starts with an underscore): it is not re-exported by
+``trackcore.scenarios`` and is not part of the public API. Nothing here computes a
+result of the book; the notebooks use these helpers to check the public functions of
+``trackcore`` against independent routes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+
+from trackcore.models import (
+    tom_process_noise,
+    tom_rotation,
+    tom_transition,
+    van_loan_discretize,
+)
+
+__all__: list[str] = []  # private: nothing is re-exported
+
+_G = np.vstack([np.zeros((2, 2)), np.eye(2)])
+
+
+def _f_cont(phi: float) -> np.ndarray:
+    """Continuous-time drift of the TOM state (position, velocity in (f, s) axes)."""
+    F = np.zeros((4, 4))
+    F[:2, 2:] = tom_rotation(phi)
+    return F
+
+
+def _rel_err(A: np.ndarray, B: np.ndarray) -> float:
+    return float(np.max(np.abs(A - B)) / np.max(np.abs(B)))
+
+
+def tom_discretization_errors(
+    phi: float, T: float, sf: float, ss: float
+) -> tuple[float, float, float]:
+    """Errors of the TOM discretization against independent matrix-exponential routes.
+
+    Returns ``(e_phi, e_dwna, e_cwna)``: the largest absolute difference of
+    ``tom_transition`` from ``expm(F T)``; the relative difference of the DWNA
+    ``tom_process_noise`` from ``Gamma S Gamma^T`` with ``Gamma`` taken from the
+    exponential of the augmented matrix ``[[F, G], [0, 0]]``; the relative difference
+    of the CWNA noise from Van Loan's discretization of ``G S G^T``.
+    """
+    if not T > 0:
+        raise ValueError(f"T must be positive, got {T}")
+    if not (sf >= 0 and ss >= 0):
+        raise ValueError(f"sf and ss must be non-negative, got {sf}, {ss}")
+    S = np.diag([sf**2, ss**2])
+    F = _f_cont(phi)
+    e_phi = float(np.max(np.abs(tom_transition(phi, T) - scipy.linalg.expm(F * T))))
+    M = np.zeros((6, 6))
+    M[:4, :4] = F
+    M[:4, 4:] = _G
+    Gamma = scipy.linalg.expm(M * T)[:4, 4:]
+    e_d = _rel_err(tom_process_noise(phi, T, sf, ss), Gamma @ S @ Gamma.T)
+    _, Q_vl = van_loan_discretize(F, _G @ S @ _G.T, T)
+    e_c = _rel_err(tom_process_noise(phi, T, sf, ss, kind="cwna"), Q_vl)
+    return e_phi, e_d, e_c
+
+
+def below_or_sci(e: float, floor: str) -> str:
+    """``"< floor"`` when ``e`` is below ``float(floor)``, else ``e`` as ``"1.2e-08"``."""
+    return f"< {floor}" if e < float(floor) else f"{e:.1e}"
