@@ -25,3 +25,41 @@ def test_discretization_errors_bad_input():
 def test_below_or_sci():
     assert below_or_sci(1e-13, "1e-12") == "< 1e-12", "below the floor"
     assert below_or_sci(2.5e-8, "1e-9") == "2.5e-08", "above the floor"
+
+
+def test_max_rel_diff():
+    import numpy as np
+
+    from trackcore.scenarios._tom_book import max_rel_diff
+
+    got = max_rel_diff(np.array([1.5, 200.0]), np.array([1.0, 100.0]))
+    assert got == 1.0, f"expected 1.0 (relative 100 %), got {got}"
+    assert max_rel_diff([0.5], [0.0]) == 0.5, "absolute below |b| = 1"
+    with pytest.raises(ValueError, match="shape"):
+        max_rel_diff([1.0, 2.0], [1.0])
+
+
+def test_filterpy_imm_run_matches_trackcore():
+    import numpy as np
+
+    from trackcore.core.rng import spawn_generators
+    from trackcore.scenarios import houles_measurements, houles_truth
+    from trackcore.scenarios._tom_book import filterpy_imm_run, max_rel_diff
+    from trackcore.trackers import car_imm_model_set, imm_pdaf_track, two_point_init
+
+    R = 400.0 * np.eye(2)
+    models = car_imm_model_set(sigma_cv=5.0)
+    rng = spawn_generators(7, 1)[0]
+    s = houles_measurements(houles_truth(np.arange(30.0)), rng, clutter_density=0.0)
+    x0, P0 = two_point_init(s.z[0], s.z[1], R)
+    zs = s.z[2:]
+    ours = imm_pdaf_track(
+        models, list(zs[:, None, :]), x0, P0, R, pd=1.0, pg=1.0, clutter_density=0.0
+    )
+    xs, Ps, mus = filterpy_imm_run(models, zs, x0, P0, R)
+    i = models.out_index
+    assert max_rel_diff(ours.x, xs[:, i]) < 1e-9, "state differs from filterpy"
+    assert max_rel_diff(ours.P, Ps[:, i][:, :, i]) < 1e-9, "covariance differs"
+    assert max_rel_diff(ours.mu, mus) < 1e-9, "model probabilities differ"
+    with pytest.raises(ValueError, match="zs"):
+        filterpy_imm_run(models, zs[:, :1], x0, P0, R)

@@ -66,3 +66,46 @@ def tom_discretization_errors(
 def below_or_sci(e: float, floor: str) -> str:
     """``"< floor"`` when ``e`` is below ``float(floor)``, else ``e`` as ``"1.2e-08"``."""
     return f"< {floor}" if e < float(floor) else f"{e:.1e}"
+
+
+def filterpy_imm_run(models, zs, x0, P0, R):
+    """Run filterpy's ``IMMEstimator`` (an independent IMM) over the scans ``zs``.
+
+    ``models`` is a trackcore IMM model set (``embed``, ``init_var``, ``F``, ``Q``,
+    ``H``, ``mu0``, ``transition``); the state ``x0``, ``P0`` is embedded in each
+    model's state as ``imm_pdaf_track`` does. Each scan is one measurement (``P_D = 1``,
+    no clutter). Returns the combined states, covariances and model probabilities,
+    one row per scan.
+    """
+    from filterpy.kalman import IMMEstimator, KalmanFilter
+
+    zs = np.asarray(zs, dtype=float)
+    if zs.ndim != 2 or zs.shape[1] != 2:
+        raise ValueError(f"zs must have shape (K, 2), got {zs.shape}")
+    xm = models.embed @ x0
+    Pm = models.embed @ P0 @ models.embed.T + np.diag(models.init_var)
+    filters = []
+    for j in range(models.F.shape[0]):
+        kf = KalmanFilter(dim_x=xm.size, dim_z=2)
+        kf.x, kf.P = xm.copy(), Pm.copy()
+        kf.F, kf.Q = models.F[j].copy(), models.Q[j].copy()
+        kf.H, kf.R = models.H.copy(), np.array(R, dtype=float)
+        filters.append(kf)
+    imm = IMMEstimator(filters, models.mu0.copy(), models.transition.copy())
+    xs, Ps, mus = [], [], []
+    for z in zs:
+        imm.predict()
+        imm.update(z)
+        xs.append(imm.x.copy())
+        Ps.append(imm.P.copy())
+        mus.append(imm.mu.copy())
+    return np.array(xs), np.array(Ps), np.array(mus)
+
+
+def max_rel_diff(a, b) -> float:
+    """Largest ``|a - b| / max(|b|, 1)`` entry: relative where ``|b| > 1``, else
+    absolute."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if a.shape != b.shape:
+        raise ValueError(f"a and b must have the same shape, got {a.shape}, {b.shape}")
+    return float(np.max(np.abs(a - b) / np.maximum(np.abs(b), 1.0)))
