@@ -63,3 +63,27 @@ def test_filterpy_imm_run_matches_trackcore():
     assert max_rel_diff(ours.mu, mus) < 1e-9, "model probabilities differ"
     with pytest.raises(ValueError, match="zs"):
         filterpy_imm_run(models, zs[:, :1], x0, P0, R)
+
+
+def test_ks_distance():
+    import numpy as np
+
+    from trackcore.scenarios._tom_book import ks_distance
+
+    rng = np.random.default_rng(1)
+    d_norm = ks_distance(rng.normal(size=4000))
+    d_exp = ks_distance(rng.exponential(size=4000))
+    assert d_norm < 0.03 < d_exp, f"KS normal {d_norm}, exponential {d_exp}"
+    with pytest.raises(ValueError, match="a must"):
+        ks_distance(np.ones((2, 2)))
+
+
+def test_acceleration_seed_stats():
+    import numpy as np
+
+    from trackcore.scenarios._tom_book import acceleration_seed_stats
+
+    s = acceleration_seed_stats(np.random.default_rng(3), np.random.default_rng(4))
+    assert len(s) == 19, f"expected 19 statistics, got {sorted(s)}"
+    assert all(np.isfinite(v) for v in s.values()), f"non-finite statistic in {s}"
+    assert 0 <= s["rho_white"] <= 1, f"|ρ| of white noise {s['rho_white']}"

@@ -109,3 +109,64 @@ def max_rel_diff(a, b) -> float:
     if a.shape != b.shape:
         raise ValueError(f"a and b must have the same shape, got {a.shape}, {b.shape}")
     return float(np.max(np.abs(a - b) / np.maximum(np.abs(b), 1.0)))
+
+
+def ks_distance(a) -> float:
+    """Kolmogorov-Smirnov distance of the sample ``a`` from the normal law with its
+    own mean and standard deviation."""
+    from scipy import stats
+
+    a = np.asarray(a, dtype=float)
+    if a.ndim != 1 or a.size < 2:
+        raise ValueError(f"a must be a 1-D sample of at least 2 values, got {a.shape}")
+    return float(stats.kstest(a, "norm", args=(a.mean(), a.std())).statistic)
+
+
+def acceleration_seed_stats(rng, rng_n) -> dict[str, float]:
+    """One seed's acceleration statistics of the random-manoeuvre scenarios.
+
+    From ``rng``: scenario 1 (``a1``), scenario 2 (``a2``) and a white-noise pair of
+    ``a2``'s length, in that order; from ``rng_n``: scenario 2 without the speed clip
+    (the ablation). Returns the variances of ``a_f, a_s, a_x, a_y`` of ``a2``, the
+    largest ``|ρ|`` of the cross-correlation of each pair, ``|mean a_s|``, the KS
+    distances from normal (``ks_*``, ablation ``n_ks_*``) and the ablation's top speed.
+    Checks the trace identity (the mean square acceleration does not depend on the
+    axes) and raises ``AssertionError`` if it fails.
+    """
+    from trackcore.scenarios import (
+        cross_correlation_coefficient,
+        random_manoeuvre_turn,
+        random_manoeuvre_xy,
+    )
+
+    def max_rho(A):
+        return float(np.abs(cross_correlation_coefficient(A[:, 0], A[:, 1])[1]).max())
+
+    a3 = random_manoeuvre_turn(rng_n, speed_limits=(1.0, 5000.0))
+    a1 = random_manoeuvre_xy(rng)
+    a2 = random_manoeuvre_turn(rng)
+    xy, fs = a2.accel_xy, a2.accel_fs
+    m2xy, m2fs = (xy**2).mean(axis=0).sum(), (fs**2).mean(axis=0).sum()
+    assert abs(m2xy - m2fs) < 1e-9 * m2xy, f"trace identity: {m2xy} vs {m2fs}"
+    wn = rng.normal(size=(xy.shape[0], 2))
+    return {
+        "var_f": float(fs[:, 0].var()),
+        "var_s": float(fs[:, 1].var()),
+        "var_x": float(xy[:, 0].var()),
+        "var_y": float(xy[:, 1].var()),
+        "rho_xy": max_rho(xy),
+        "rho_fs": max_rho(fs),
+        "rho_white": max_rho(wn),
+        "mean_s": float(abs(fs[:, 1].mean())),
+        "ks_x1": ks_distance(a1.accel_xy[:, 0]),
+        "ks_f1": ks_distance(a1.accel_fs[:, 0]),
+        "ks_x2": ks_distance(xy[:, 0]),
+        "ks_y2": ks_distance(xy[:, 1]),
+        "ks_f2": ks_distance(fs[:, 0]),
+        "ks_s2": ks_distance(fs[:, 1]),
+        "n_ks_x": ks_distance(a3.accel_xy[:, 0]),
+        "n_ks_f": ks_distance(a3.accel_fs[:, 0]),
+        "n_ks_y": ks_distance(a3.accel_xy[:, 1]),
+        "n_ks_s": ks_distance(a3.accel_fs[:, 1]),
+        "n_vmax": float(np.hypot(*a3.velocity.T).max()),
+    }
