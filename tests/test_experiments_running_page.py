@@ -23,6 +23,7 @@ NOT_RUN = {
     "jupyter execute": "executes a notebook (the test suite's nbval run executes it)",
     "pytest ": "runs the test suite on a notebook (the suite's nbval run does)",
     "jupyter-book build": "builds the book (the README's build command)",
+    "bash .ci/build_pdf": "builds the whole-book PDF (CI's .ci/run builds and checks it)",
 }
 
 

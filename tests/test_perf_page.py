@@ -1,9 +1,15 @@
 """The tables of the appendix "Performance" (benchmarks._perf_page), on synthetic rows
 and on the stored benchmark results."""
+import sys
+from pathlib import Path
+
 import pytest
 
-from benchmarks import _perf_page as pp
-from benchmarks.report import load, row, seconds
+# benchmarks/ is a folder of the repository, not an installed package (as in the appendix)
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from benchmarks import _perf_page as pp  # noqa: E402
+from benchmarks.report import load, row, seconds  # noqa: E402
 
 
 def _r(workload, impl, size, s, **kw):
