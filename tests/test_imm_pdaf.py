@@ -1,17 +1,24 @@
 """Tests for trackcore.trackers.imm_pdaf (IMM-PDAF with Singer, CAR and TOM model sets)."""
-import copy
 import math
 
 import numpy as np
 import pytest
-from filterpy.kalman import IMMEstimator, KalmanFilter
 
 from trackcore.association import gate_threshold, mahalanobis_gate
 from trackcore.models import tom_process_noise, tom_transition
 from trackcore.scenarios import houles_measurements, houles_truth
-from trackcore.trackers import (IMMModelSet, car_imm_model_set, imm_pdaf_track,
-                                imm_pdaf_track_packed, markov_matrix, pack_scans,
-                                singer_imm_model_set, tom_imm_model_set, two_point_init)
+from trackcore.scenarios._tom_book import filterpy_imm_run
+from trackcore.trackers import (
+    IMMModelSet,
+    car_imm_model_set,
+    imm_pdaf_track,
+    imm_pdaf_track_packed,
+    markov_matrix,
+    pack_scans,
+    singer_imm_model_set,
+    tom_imm_model_set,
+    two_point_init,
+)
 
 R = 400.0 * np.eye(2)
 TRUTH = houles_truth(np.arange(91.0))
@@ -25,31 +32,6 @@ def _clean_run(seed):
     return zs[2:], x0, P0
 
 
-def _filterpy_imm(models, zs, x0, P0):
-    n = models.F.shape[1]
-    xm = models.embed @ x0
-    Pm = models.embed @ P0 @ models.embed.T + np.diag(models.init_var)
-    filters = []
-    for j in range(models.F.shape[0]):
-        kf = KalmanFilter(dim_x=n, dim_z=2)
-        kf.x = xm.copy()
-        kf.P = Pm.copy()
-        kf.F = models.F[j].copy()
-        kf.Q = models.Q[j].copy()
-        kf.H = models.H.copy()
-        kf.R = R.copy()
-        filters.append(kf)
-    imm = IMMEstimator(filters, models.mu0.copy(), models.transition.copy())
-    xs, Ps, mus = [], [], []
-    for z in zs:
-        imm.predict()
-        imm.update(z)
-        xs.append(imm.x.copy())
-        Ps.append(imm.P.copy())
-        mus.append(imm.mu.copy())
-    return np.array(xs), np.array(Ps), np.array(mus)
-
-
 @pytest.mark.parametrize("make", [car_imm_model_set, singer_imm_model_set])
 @pytest.mark.parametrize("seed", [0, 1])
 def test_equals_filterpy_imm_without_clutter(make, seed):
@@ -57,7 +39,7 @@ def test_equals_filterpy_imm_without_clutter(make, seed):
     zs, x0, P0 = _clean_run(seed)
     res = imm_pdaf_track(models, list(zs[:, None, :]), x0, P0, R, pd=1.0, pg=1.0,
                          clutter_density=0.0)
-    xs, Ps, mus = _filterpy_imm(models, zs, x0, P0)
+    xs, Ps, mus = filterpy_imm_run(models, zs, x0, P0, R)
     idx = models.out_index
     np.testing.assert_allclose(res.x, xs[:, idx], rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(res.P, Ps[:, idx][:, :, idx], rtol=1e-9, atol=1e-9)
@@ -241,8 +223,12 @@ def test_bad_inputs():
 # ---------------------------------------------------------------- records and builders
 import dataclasses  # noqa: E402
 
-from trackcore.trackers import (TOM_HEADINGS, ct_imm_model_set, cv_model_set,  # noqa: E402
-                                tom_model_set)
+from trackcore.trackers import (  # noqa: E402
+    TOM_HEADINGS,
+    ct_imm_model_set,
+    cv_model_set,
+    tom_model_set,
+)
 
 
 def test_model_set_record_validates_every_field():

@@ -27,3 +27,10 @@ def check_names(value, name: str, allowed=None, item: str = "name", *,
                                  f"{tuple(allowed)}")
     if len(set(value)) != len(value):
         raise ValueError(f"{name} must not repeat, got {value}")
+
+
+def check_jitter(value) -> None:
+    """A pixel jitter: a finite real number >= 0 (not a bool)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) \
+            or not math.isfinite(value) or value < 0:
+        raise ValueError(f"jitter must be a finite number >= 0 (px), got {value!r}")

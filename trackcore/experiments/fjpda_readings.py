@@ -15,13 +15,12 @@ CLEAR-MOT and identity measures of py-motmetrics
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..scenarios.feature_metrics import MOT_METRICS, clear_mot_metrics, scene_metrics
-from ._checks import check_names
+from ._checks import check_jitter, check_names
 from ._core import Experiment, register
 from .registry import _Config
 
@@ -91,10 +90,7 @@ class FjpdaReadingsConfig(_Config):
     def __post_init__(self):
         if not isinstance(self.scene, str) or self.scene not in _SCENES:
             raise ValueError(f"scene must be one of {_SCENES}, got {self.scene!r}")
-        j = self.jitter
-        if isinstance(j, bool) or not isinstance(j, (int, float, np.floating)) \
-                or not math.isfinite(j) or j < 0:
-            raise ValueError(f"jitter must be a finite number >= 0 (px), got {j!r}")
+        check_jitter(self.jitter)
         check_names(self.extras, "extras", ("s3",), "extra", empty=True)
 
     def variants(self) -> dict:

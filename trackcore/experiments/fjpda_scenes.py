@@ -13,13 +13,12 @@ and ``false_sources`` are left out; ``crossing`` is coded as an integer, see
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..scenarios.feature_metrics import scene_trial
-from ._checks import check_names
+from ._checks import check_jitter, check_names
 from ._core import Experiment, register
 from .registry import _Config
 
@@ -100,10 +99,7 @@ class FjpdaSceneConfig(_Config):
     def __post_init__(self):
         if not isinstance(self.scene, str) or self.scene not in _SCENES:
             raise ValueError(f"scene must be one of {_SCENES}, got {self.scene!r}")
-        j = self.jitter
-        if isinstance(j, bool) or not isinstance(j, (int, float, np.floating)) \
-                or not math.isfinite(j) or j < 0:
-            raise ValueError(f"jitter must be a finite number >= 0 (px), got {j!r}")
+        check_jitter(self.jitter)
         check_names(self.ablations, "ablations", _ABLATION_KEYS, "ablation", empty=True)
 
     def variants(self) -> dict:
