@@ -429,10 +429,17 @@ def test_pending_entries_match_cases():
 # The reproducers of issue 17 that fall in this suite's own files: each gives a clear error or
 # a correct finite result within a second.
 def _within_a_second(f):
+    """Call ``f`` twice; the second call must take under 1 s of this thread's CPU time.
+
+    The first call compiles or loads the numba kernels; CPU time rather than wall time,
+    so that a loaded machine does not fail the test (it was flaky under a parallel load).
+    """
     import time
-    t = time.perf_counter()
+    f()
+    t = time.thread_time()
     out = f()
-    assert time.perf_counter() - t < 1.0
+    spent = time.thread_time() - t
+    assert spent < 1.0, f"the call took {spent:.2f} s of CPU time (limit 1 s)"
     return out
 
 
