@@ -217,6 +217,19 @@ def test_obtain_non_book_config_computes_live_with_a_note(capsys, tmp_path, monk
         obtain(NAME, runs=3)  # the book's config must come from its store
 
 
+def test_obtain_more_runs_than_stored_verifies_only_the_stored_ones(capsys):
+    stored = get(NAME).runs
+    res = obtain(NAME, runs=stored + 2)
+    out = capsys.readouterr().out
+    assert f"runs {stored} to {stored + 1} are computed now" in out, out
+    assert res.runs == stored + 2 and res.meta["stored_runs"] == stored, res.meta
+    v = verify_sample(res, minimum=3, fraction=0.001)
+    assert max(v.indices) < stored, v.indices
+    assert str(v) == (f"{NAME}: re-simulated 3 of {stored} stored runs (a fresh random "
+                      "sample): all match; 2 more runs were computed now, not read from "
+                      "the store"), str(v)
+
+
 def test_cli_list_run_verify(tmp_path):
     env_out = tmp_path / "cli.parquet"
     cmd = [sys.executable, "-m", "trackcore.experiments"]

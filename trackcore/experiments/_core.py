@@ -516,7 +516,7 @@ def obtain(name, *, runs=None, seed=None, overrides=None, executor=None):
             cols = {"run": np.arange(runs, dtype=np.int64)}
             for k, v in _columns(more).items():
                 cols[k] = np.concatenate([res.columns[k], v])
-            meta = dict(res.meta, runs=runs)
+            meta = dict(res.meta, runs=runs, stored_runs=stored)
             return Results(experiment, meta, cols, path, config)
         res = load(name, runs=runs, seed=seed)
         if runs != experiment.runs:
@@ -549,10 +549,14 @@ class Verification:
     runs: int
     indices: tuple
     rtol: float
+    computed: int = 0
 
     def __str__(self):
-        return (f"{self.experiment}: re-simulated {self.checked} of {self.runs} stored runs "
+        text = (f"{self.experiment}: re-simulated {self.checked} of {self.runs} stored runs "
                 f"(a fresh random sample): all match")
+        if self.computed:
+            text += f"; {self.computed} more runs were computed now, not read from the store"
+        return text
 
 
 def sample_size(runs, fraction=0.01, minimum=20) -> int:
@@ -631,9 +635,11 @@ def verify_sample(results, *, fraction=0.01, minimum=20, indices=None, executor=
         raise TypeError(f"results must be a Results or an experiment name, "
                         f"got {type(results).__name__}")
     n = res.runs
+    # obtain() may add runs computed now to the stored ones: only stored runs are sampled
+    stored = int(res.meta.get("stored_runs", n))
     if indices is None:
-        k = sample_size(n, fraction, minimum)
-        indices = sorted(random.SystemRandom().sample(range(n), k))
+        k = sample_size(stored, fraction, minimum)
+        indices = sorted(random.SystemRandom().sample(range(stored), k))
     else:
         indices = sorted({as_int(i, "index", minimum=0) for i in indices})
         if any(i >= n for i in indices):
@@ -643,7 +649,8 @@ def verify_sample(results, *, fraction=0.01, minimum=20, indices=None, executor=
                             executor=executor, progress=progress)
     for i, row in zip(indices, fresh):
         compare_rows(res.row(i), row, i, rtol)
-    return Verification(experiment.name, len(indices), n, tuple(indices), rtol)
+    return Verification(experiment.name, len(indices), stored, tuple(indices), rtol,
+                        n - stored)
 
 
 # ------------------------------------------------------------------------------- registry
