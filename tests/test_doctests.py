@@ -25,6 +25,7 @@ FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 
 #: Modules whose every public callable carries an ``Examples`` section with ``>>>`` lines.
 WITH_EXAMPLES = [
+    "trackcore.filters.kalman", "trackcore.filters.imm", "trackcore.filters.particle",
 ]
 
 

@@ -44,7 +44,19 @@ __all__ = [
 
 
 class IMMStep(NamedTuple):
-    """Result of one IMM cycle."""
+    """Result of one IMM cycle.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import imm_step
+    >>> r = imm_step(np.zeros((2, 1)), np.ones((2, 1, 1)), [0.5, 0.5], [[0.9, 0.1], [0.1, 0.9]],
+    ...              np.ones((2, 1, 1)), [[[0.1]], [[10.0]]], [3.0], [[1.0]], [[1.0]])
+    >>> r._fields
+    ('xs', 'Ps', 'mu', 'x', 'P', 'logliks')
+    >>> print(np.round(r.mu, 3), np.round(r.x, 3))
+    [0.29 0.71] [2.408]
+    """
     xs: np.ndarray       # (r, n) mode-matched posterior means
     Ps: np.ndarray       # (r, n, n) mode-matched posterior covariances
     mu: np.ndarray       # (r,) posterior mode probabilities
@@ -54,7 +66,20 @@ class IMMStep(NamedTuple):
 
 
 class IMMRun(NamedTuple):
-    """Result of :func:`imm_filter_run` over K scans."""
+    """Result of :func:`imm_filter_run` over K scans.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import imm_filter_run
+    >>> run = imm_filter_run(np.zeros((4, 1)), np.zeros((2, 1)), np.ones((2, 1, 1)), [0.5, 0.5],
+    ...                      [[0.9, 0.1], [0.1, 0.9]], np.ones((2, 1, 1)), [[[0.1]], [[10.0]]],
+    ...                      [[1.0]], [[1.0]])
+    >>> run._fields
+    ('x', 'P', 'mu', 'loglik')
+    >>> run.x.shape, run.P.shape, run.mu.shape, run.loglik.shape
+    ((4, 1), (4, 1, 1), (4, 2), (4,))
+    """
     x: np.ndarray       # (K, n) combined posterior means
     P: np.ndarray       # (K, n, n) combined posterior covariances
     mu: np.ndarray      # (K, r) mode probabilities
@@ -269,6 +294,16 @@ def imm_mix(mu, PI, xs, Ps):
     """IMM mixing step.  Returns ``(x0s (r, n), P0s (r, n, n), c_bar (r,))``.
 
     ``c_bar`` are the predicted mode probabilities ``mu @ PI``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import imm_mix
+    >>> xs = np.array([[0.0], [2.0]])          # two modes, one state
+    >>> Ps = np.array([[[1.0]], [[1.0]]])
+    >>> x0s, P0s, c_bar = imm_mix([0.5, 0.5], [[0.9, 0.1], [0.1, 0.9]], xs, Ps)
+    >>> print(np.round(x0s.ravel(), 3), np.round(P0s.ravel(), 3), c_bar)
+    [0.2 1.8] [1.36 1.36] [0.5 0.5]
     """
     xs, Ps, r, n = _check_modes(xs, Ps)
     mu = _check_mu(mu, "mu", r)
@@ -286,6 +321,14 @@ def imm_mode_update(c_bar, logliks):
     Computed in log space: stable when every likelihood underflows (e.g.
     ``logliks = [-2000, -2001]``).  ``logliks`` entries may be ``-inf``
     (impossible mode) but not all modes may have zero mass.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import imm_mode_update
+    >>> mu = imm_mode_update(np.array([0.5, 0.5]), np.log([0.1, 0.3]))
+    >>> print(np.round(mu, 3))
+    [0.25 0.75]
     """
     c_bar = _check_mu(c_bar, "c_bar")
     r = c_bar.shape[0]
@@ -301,7 +344,16 @@ def imm_mode_update(c_bar, logliks):
 
 
 def imm_combine(mu, xs, Ps):
-    """Moment-matched combination of the mode-matched estimates -> ``GaussianEstimate``."""
+    """Moment-matched combination of the mode-matched estimates -> ``GaussianEstimate``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import imm_combine
+    >>> est = imm_combine(np.array([0.5, 0.5]), np.array([[0.0], [2.0]]), np.ones((2, 1, 1)))
+    >>> print(est.x, est.P)     # the spread of the means adds to the covariance
+    [1.] [[2.]]
+    """
     xs, Ps, r, n = _check_modes(xs, Ps)
     mu = _check_mu(mu, "mu", r)
     x, P = np.empty(n), np.empty((n, n))
@@ -332,6 +384,22 @@ def imm_step(xs, Ps, mu, PI, Fs, Qs, z, H, R):
     ``Fs``, ``Qs`` (r, n, n) the mode models; ``z`` (m,) with common ``H``
     (m, n), ``R`` (m, m).  An empty ``z`` (m = 0) predicts only.  Returns
     :class:`IMMStep`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import imm_step
+    >>> from trackcore.models import cv_transition, cv_process_noise, position_matrix
+    >>> F = cv_transition(1.0, dim=1)
+    >>> Fs = np.stack([F, F])
+    >>> Qs = np.stack([cv_process_noise(1.0, 0.01, dim=1), cv_process_noise(1.0, 10.0, dim=1)])
+    >>> H, R = position_matrix(dim=1, n=2), np.array([[1.0]])
+    >>> xs, Ps = np.zeros((2, 2)), np.stack([np.eye(2), np.eye(2)])
+    >>> step = imm_step(xs, Ps, [0.5, 0.5], [[0.95, 0.05], [0.05, 0.95]], Fs, Qs, [8.0], H, R)
+    >>> print(np.round(step.mu, 3))     # a jump of 8 sigma favours the high-noise mode
+    [0.011 0.989]
+    >>> print(np.round(step.x, 3))
+    [6.533 8.663]
     """
     z = as_vector(z, "z")
     m = z.shape[0]
@@ -365,6 +433,27 @@ def imm_filter_run(zs, xs0, Ps0, mu0, PI, Fs, Qs, H, R):
     probabilities ``mu0``; each scan is one :func:`imm_step`.  A row of NaN is a
     missed scan.  Returns :class:`IMMRun` ``(x (K, n), P (K, n, n), mu (K, r),
     loglik (K,))``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import imm_filter_run
+    >>> from trackcore.models import cv_transition, cv_process_noise, position_matrix
+    >>> F = cv_transition(1.0, dim=1)
+    >>> Fs = np.stack([F, F])
+    >>> Qs = np.stack([cv_process_noise(1.0, 0.01, dim=1), cv_process_noise(1.0, 10.0, dim=1)])
+    >>> H, R = position_matrix(dim=1, n=2), np.array([[1.0]])
+    >>> zs = np.array([[0.0], [1.0], [2.0], [9.0], [16.0]])   # a manoeuvre at scan 3
+    >>> run = imm_filter_run(zs, np.zeros((2, 2)), np.stack([np.eye(2), np.eye(2)]), [0.5, 0.5],
+    ...                      [[0.95, 0.05], [0.05, 0.95]], Fs, Qs, H, R)
+    >>> print(np.round(run.mu, 3))
+    [[0.575 0.425]
+     [0.681 0.319]
+     [0.76  0.24 ]
+     [0.007 0.993]
+     [0.05  0.95 ]]
+    >>> print(np.round(run.x[-1], 3))
+    [15.931  7.567]
     """
     if not (type(zs) is np.ndarray and zs.dtype == np.float64 and zs.ndim == 2
             and zs.flags.c_contiguous):

@@ -51,13 +51,33 @@ __all__ = [
 
 
 class GaussianEstimate(NamedTuple):
-    """A Gaussian state estimate: mean ``x`` (n,) and covariance ``P`` (n, n)."""
+    """A Gaussian state estimate: mean ``x`` (n,) and covariance ``P`` (n, n).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import GaussianEstimate
+    >>> est = GaussianEstimate(x=np.array([1.0, 0.5]), P=np.eye(2))
+    >>> est.x, est.P.shape
+    (array([1. , 0.5]), (2, 2))
+    """
     x: np.ndarray
     P: np.ndarray
 
 
 class KalmanUpdate(NamedTuple):
-    """Result of a (E)KF measurement update."""
+    """Result of a (E)KF measurement update.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import kf_update
+    >>> upd = kf_update(np.zeros(2), np.eye(2), [1.0], [[1.0, 0.0]], [[1.0]])
+    >>> upd._fields
+    ('x', 'P', 'innovation', 'S', 'K', 'nis', 'loglik')
+    >>> print(upd.x, round(upd.nis, 3))
+    [0.5 0. ] 0.5
+    """
     x: np.ndarray           # posterior mean (n,)
     P: np.ndarray           # posterior covariance (n, n)
     innovation: np.ndarray  # nu = z - z_pred (m,), angles wrapped for the EKF
@@ -68,7 +88,19 @@ class KalmanUpdate(NamedTuple):
 
 
 class KalmanRun(NamedTuple):
-    """Result of :func:`kalman_filter_run` over K scans."""
+    """Result of :func:`kalman_filter_run` over K scans.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import kalman_filter_run
+    >>> run = kalman_filter_run(np.ones((3, 1)), np.zeros(1), np.eye(1), np.eye(1), 0.1 * np.eye(1),
+    ...                         np.eye(1), np.eye(1))
+    >>> run._fields
+    ('xs', 'Ps', 'nis', 'loglik')
+    >>> run.xs.shape, run.Ps.shape, run.nis.shape
+    ((3, 1), (3, 1, 1), (3,))
+    """
     xs: np.ndarray      # (K, n) posterior means
     Ps: np.ndarray      # (K, n, n) posterior covariances
     nis: np.ndarray     # (K,) NIS (NaN for a missed scan)
@@ -436,7 +468,21 @@ def _check_state(x, P, x_name="x", P_name="P"):
 
 
 def kf_predict(x, P, F, Q):
-    """Kalman prediction: returns ``(F x, F P F^T + Q)``."""
+    """Kalman prediction: returns ``(F x, F P F^T + Q)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import kf_predict
+    >>> from trackcore.models import cv_transition, cv_process_noise
+    >>> F, Q = cv_transition(1.0, dim=1), cv_process_noise(1.0, 0.1, dim=1)
+    >>> x, P = kf_predict(np.array([0.0, 2.0]), np.eye(2), F, Q)
+    >>> print(x)
+    [2. 2.]
+    >>> print(np.round(P, 3))
+    [[2.025 1.05 ]
+     [1.05  1.1  ]]
+    """
     x, P, n = _check_state(x, P)
     F = checked(F, "F", (n, n))
     Q = checked_cov(Q, "Q", n)
@@ -491,6 +537,23 @@ def kf_update(x, P, z, H, R):
 
     Returns :class:`KalmanUpdate`.  ``z`` of length 0 (empty scan) returns the
     prior unchanged with ``nis = loglik = 0``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import kf_update
+    >>> x, P = np.array([0.0, 1.0]), np.diag([4.0, 1.0])
+    >>> H, R = np.array([[1.0, 0.0]]), np.array([[1.0]])
+    >>> upd = kf_update(x, P, [2.0], H, R)
+    >>> print(upd.x)
+    [1.6 1. ]
+    >>> print(np.round(upd.P, 3))
+    [[0.8 0. ]
+     [0.  1. ]]
+    >>> print(upd.innovation, upd.S, round(upd.nis, 3), round(upd.loglik, 3))
+    [2.] [[5.]] 0.8 -2.124
+    >>> kf_update(x, P, [], H, R).nis    # an empty scan leaves the prior unchanged
+    0.0
     """
     x, P, n = _check_state(x, P)
     z, H, R, m = _check_measurement(z, H, R, n)
@@ -512,6 +575,20 @@ def ekf_update(x, P, z, z_pred, H, R, angle_index=None):
     e.g. :func:`trackcore.models.range_bearing`).  ``angle_index`` lists the
     measurement components that are angles: their innovations are wrapped to
     ``(-pi, pi]``.  Returns :class:`KalmanUpdate`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import ekf_update
+    >>> from trackcore.models import range_bearing, range_bearing_jacobian
+    >>> x, P = np.array([-100.0, 0.1, 0.0, 0.0]), np.diag([25.0, 25.0, 1.0, 1.0])
+    >>> z_pred, H = range_bearing(x), range_bearing_jacobian(x)
+    >>> print(np.round(z_pred, 3))               # bearing just below +pi
+    [100.      3.141]
+    >>> z = np.array([101.0, -np.pi + 0.01])     # bearing just above -pi
+    >>> upd = ekf_update(x, P, z, z_pred, H, np.diag([1.0, 1e-4]), angle_index=[1])
+    >>> print(np.round(upd.innovation, 3))       # wrapped: 0.011 rad, not -6.272
+    [1.    0.011]
     """
     x, P, n = _check_state(x, P)
     z, H, R, m = _check_measurement(z, H, R, n)
@@ -541,6 +618,23 @@ def kalman_filter_run(zs, x0, P0, F, Q, H, R):
     prior ``(x0, P0)`` at the time before the first scan.  ``zs`` is ``(K, m)``;
     a row of NaN is a missed scan (prediction only).  Returns
     :class:`KalmanRun` ``(xs (K, n), Ps (K, n, n), nis (K,), loglik (K,))``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import kalman_filter_run
+    >>> from trackcore.models import cv_transition, cv_process_noise, position_matrix
+    >>> F, Q = cv_transition(1.0, dim=1), cv_process_noise(1.0, 0.01, dim=1)
+    >>> H, R = position_matrix(dim=1, n=2), np.array([[1.0]])
+    >>> zs = np.array([[1.0], [2.1], [np.nan], [3.9]])     # scan 2 is missed
+    >>> run = kalman_filter_run(zs, np.zeros(2), 10.0 * np.eye(2), F, Q, H, R)
+    >>> print(np.round(run.xs, 3))
+    [[0.952 0.476]
+     [2.018 0.948]
+     [2.965 0.948]
+     [3.901 0.943]]
+    >>> print(np.round(run.nis, 3))
+    [0.048 0.055   nan 0.   ]
     """
     x0, P0, n = _check_state(x0, P0, "x0", "P0")
     if not (type(zs) is np.ndarray and zs.dtype == np.float64 and zs.ndim == 2
@@ -622,6 +716,21 @@ def kalman_filter_batch(zs, x0, P0, F, Q, H, R):
     equals ``kalman_filter_run(zs[r], x0, P0, F, Q, H, R)`` bit for bit.  The
     inputs are validated once, and the measurement-independent covariance
     recursion is computed once for all runs without missed scans.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import kalman_filter_batch, kalman_filter_run
+    >>> from trackcore.models import cv_transition, cv_process_noise, position_matrix
+    >>> F, Q = cv_transition(1.0, dim=1), cv_process_noise(1.0, 0.01, dim=1)
+    >>> H, R = position_matrix(dim=1, n=2), np.array([[1.0]])
+    >>> zs = np.random.default_rng(0).normal(size=(5, 10, 1))   # 5 runs of 10 scans
+    >>> batch = kalman_filter_batch(zs, np.zeros(2), 10.0 * np.eye(2), F, Q, H, R)
+    >>> batch.xs.shape, batch.nis.shape
+    ((5, 10, 2), (5, 10))
+    >>> one = kalman_filter_run(zs[3], np.zeros(2), 10.0 * np.eye(2), F, Q, H, R)
+    >>> bool(np.array_equal(batch.xs[3], one.xs))
+    True
     """
     x0, P0, n = _check_state(x0, P0, "x0", "P0")
     zs = _check_zs(zs, 3)

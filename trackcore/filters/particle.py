@@ -96,6 +96,17 @@ def noise_factor(Q, name: str = "Q", rtol: float = 1e-12):
     eigenvalues below ``rtol * max eigenvalue`` are dropped, so only ``k``
     normal draws per particle are needed.  ``Q = 0`` gives an ``(n, 0)``
     factor (noise-free propagation).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import noise_factor
+    >>> Q = np.array([[1.0, 1.0], [1.0, 1.0]])     # rank 1
+    >>> L = noise_factor(Q)
+    >>> L.shape
+    (2, 1)
+    >>> bool(np.allclose(L @ L.T, Q))
+    True
     """
     Q = as_covariance(Q, name)
     n = Q.shape[0]
@@ -184,6 +195,19 @@ def propagate_linear(particles, F, Q, rng, *, noise_factor=None, out=None):
     ``Q = L L^T``, e.g. ``Gamma * sigma``) to skip the factorisation, in which
     case ``Q`` may be ``None``.  Returns a new ``(N, n)`` array unless ``out``
     is given (which may be ``particles`` itself for in-place propagation).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import propagate_linear
+    >>> from trackcore.models import cv_transition
+    >>> particles = np.tile([0.0, 1.0], (1000, 1))
+    >>> moved = propagate_linear(particles, cv_transition(1.0, dim=1), 0.01 * np.eye(2),
+    ...                          np.random.default_rng(1))
+    >>> moved.shape
+    (1000, 2)
+    >>> print(np.round(moved.mean(axis=0), 1))
+    [1. 1.]
     """
     rng = as_rng(rng)
     X = _as_particles(particles)
@@ -246,6 +270,15 @@ def effective_sample_size(logw):
 
     Lies in ``[1, N]``.  Raises ``ValueError`` for NaN/+inf entries or when all
     weights are zero.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import effective_sample_size
+    >>> round(effective_sample_size(np.zeros(100)), 3)            # equal weights
+    100.0
+    >>> round(effective_sample_size(np.log([0.7, 0.1, 0.1, 0.1])), 3)
+    1.923
     """
     w = _as_logw(logw)
     if w.size == 0:
@@ -289,7 +322,17 @@ def weighted_mean_cov_kernel(particles, logw, mean, cov):
 
 
 def weighted_mean_cov(particles, logw):
-    """``(mean (n,), cov (n, n))`` of the particle approximation."""
+    """``(mean (n,), cov (n, n))`` of the particle approximation.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import weighted_mean_cov
+    >>> particles = np.array([[0.0], [2.0]])
+    >>> mean, cov = weighted_mean_cov(particles, np.log([0.5, 0.5]))
+    >>> print(mean, cov)
+    [1.] [[1.]]
+    """
     X = _as_particles(particles)
     if X.shape[0] == 0:
         raise ValueError("particles must not be empty")
@@ -484,12 +527,29 @@ def systematic_resample(w, rng, n_out=None):
     ``w``: non-negative finite weights with positive sum (normalised
     internally).  Uses one ``rng.random()`` draw.  Each index ``i`` appears
     ``floor(M w_i)`` or ``ceil(M w_i)`` times; output is sorted.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import systematic_resample
+    >>> idx = systematic_resample([0.5, 0.25, 0.25, 0.0], np.random.default_rng(0))
+    >>> idx.tolist()      # each particle kept about N w_i times
+    [0, 0, 1, 2]
     """
     return _resample(systematic_resample_kernel, w, rng, n_out)
 
 
 def stratified_resample(w, rng, n_out=None):
-    """Indices by stratified resampling (one uniform per stratum); sorted."""
+    """Indices by stratified resampling (one uniform per stratum); sorted.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import stratified_resample
+    >>> idx = stratified_resample([0.5, 0.25, 0.25, 0.0], np.random.default_rng(0), n_out=8)
+    >>> np.bincount(idx, minlength=4).tolist()
+    [4, 2, 2, 0]
+    """
     return _resample(stratified_resample_kernel, w, rng, n_out)
 
 
@@ -500,12 +560,29 @@ def residual_resample(w, rng, n_out=None):
     draws (in index order).
 
     Each count lies in ``[floor(M w_i), ceil(M w_i)]``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import residual_resample
+    >>> idx = residual_resample([0.5, 0.25, 0.25, 0.0], np.random.default_rng(0))
+    >>> idx.tolist()        # the integer parts N w_i are copied deterministically
+    [0, 0, 1, 2]
     """
     return _resample(residual_resample_kernel, w, rng, n_out)
 
 
 def multinomial_resample(w, rng, n_out=None):
-    """Indices by multinomial resampling (i.i.d. draws from ``w``), sorted, O(N)."""
+    """Indices by multinomial resampling (i.i.d. draws from ``w``), sorted, O(N).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import multinomial_resample
+    >>> idx = multinomial_resample([0.5, 0.5, 0.0], np.random.default_rng(0), n_out=6)
+    >>> bool(np.all(np.diff(idx) >= 0)), bool(np.all(idx < 2))  # sorted; never index 2
+    (True, True)
+    """
     return _resample(multinomial_resample_kernel, w, rng, n_out)
 
 
@@ -522,6 +599,20 @@ def resample_particles(particles, logw, rng, scheme="systematic", n_out=None):
 
     The log-weights may be unnormalised.  ``scheme`` is one of
     :data:`RESAMPLING_SCHEMES`.  The returned log-weights are ``-log(n_out)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import resample_particles
+    >>> particles = np.array([[0.0], [1.0], [2.0], [3.0]])
+    >>> logw = np.log([0.1, 0.1, 0.1, 0.7])
+    >>> new, new_logw = resample_particles(particles, logw, np.random.default_rng(0))
+    >>> new.shape
+    (4, 1)
+    >>> print(np.round(np.exp(new_logw), 3))         # uniform weights after resampling
+    [0.25 0.25 0.25 0.25]
+    >>> int((new[:, 0] == 3.0).sum()) >= 2
+    True
     """
     if scheme not in _RESAMPLERS:
         raise ValueError(f"scheme must be one of {RESAMPLING_SCHEMES}, got {scheme!r}")
@@ -668,6 +759,14 @@ def loglik_gaussian_position(particles, z, R, *, parallel=False):
     The first ``d = len(z)`` state components are the measured position.  A
     particle so far from ``z`` that its squared Mahalanobis distance overflows
     gets ``-inf`` (likelihood zero), never NaN.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import loglik_gaussian_position
+    >>> particles = np.array([[0.0, 0.0, 1.0, 1.0], [3.0, 4.0, 0.0, 0.0]])   # [x, y, vx, vy]
+    >>> print(np.round(loglik_gaussian_position(particles, [0.0, 0.0], np.eye(2)), 3))
+    [ -1.838 -14.338]
     """
     X = _as_particles(particles)
     z = as_vector(z, "z")
@@ -691,6 +790,15 @@ def loglik_range_bearing(particles, z, R, sensor=(0.0, 0.0), *, parallel=False):
     ``particles`` have ``[x, y, ...]`` first; bearing ``atan2(y - sy, x - sx)``;
     the bearing innovation is wrapped to (-pi, pi].  Returns ``(N,)``; a
     particle whose range innovation overflows gets ``-inf``, never NaN.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import loglik_range_bearing
+    >>> particles = np.array([[100.0, 0.0, 0.0, 0.0], [0.0, 100.0, 0.0, 0.0]])
+    >>> ll = loglik_range_bearing(particles, [100.0, 0.0], np.diag([1.0, 0.01]))
+    >>> print(np.round(ll, 2))        # the particle on the x axis explains (r, theta) = (100, 0)
+    [   0.46 -122.91]
     """
     X = _as_particles(particles)
     if X.shape[1] < 2:
@@ -1018,7 +1126,23 @@ def bootstrap_step_kernel(particles, logw, F, L, z, Rinv, logdetR, model, sx, sy
 
 
 class BootstrapStep(NamedTuple):
-    """Result of :func:`bootstrap_step` (particles/logw are updated in place)."""
+    """Result of :func:`bootstrap_step` (particles/logw are updated in place).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import bootstrap_step, noise_factor
+    >>> from trackcore.models import cv_transition, cv_process_noise
+    >>> rng = np.random.default_rng(0)
+    >>> particles = rng.normal([0.0, 0.0, 1.0, 1.0], 1.0, size=(500, 4))
+    >>> step = bootstrap_step(particles, np.zeros(500), cv_transition(1.0),
+    ...                       noise_factor(cv_process_noise(1.0, 0.1)), [1.0, 1.0], np.eye(2), rng,
+    ...                       model="position")
+    >>> step._fields
+    ('particles', 'logw', 'log_evidence', 'ess', 'resampled')
+    >>> step.resampled
+    True
+    """
 
     particles: np.ndarray
     logw: np.ndarray
@@ -1048,6 +1172,23 @@ def bootstrap_step(particles, logw, F, L, z, R, rng, model="range_bearing", *,
     ``-inf`` (it is never resampled); when every particle does, there is no
     posterior and a ``ValueError`` is raised, as it is when the propagation
     overflows.  Log-weights, ESS and log-evidence are never NaN.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.filters import bootstrap_step, noise_factor, weighted_mean_cov
+    >>> from trackcore.models import cv_transition, cv_process_noise
+    >>> rng = np.random.default_rng(0)
+    >>> particles = rng.normal([0.0, 0.0, 1.0, 1.0], 1.0, size=(2000, 4))
+    >>> logw = np.zeros(2000)
+    >>> F, L = cv_transition(1.0), noise_factor(cv_process_noise(1.0, 0.1))
+    >>> step = bootstrap_step(particles, logw, F, L, [1.0, 1.0], 0.1 * np.eye(2), rng,
+    ...                       model="position", ess_threshold=0.5)
+    >>> step.resampled       # the measurement concentrates the weights: ESS below N / 2
+    True
+    >>> mean, cov = weighted_mean_cov(step.particles, step.logw)
+    >>> print(np.round(mean[:2], 1))
+    [1. 1.]
     """
     # Each argument takes a cheap path when it is already what the kernel needs
     # (C-contiguous float64 of the right shape, finite sum); anything else goes
