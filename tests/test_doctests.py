@@ -25,7 +25,9 @@ FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 
 #: Modules whose every public callable carries an ``Examples`` section with ``>>>`` lines.
 WITH_EXAMPLES = [
+    "trackcore.core.logmath", "trackcore.core.rng", "trackcore.core.validation",
     "trackcore.filters.kalman", "trackcore.filters.imm", "trackcore.filters.particle",
+    "trackcore.association.gating", "trackcore.association.pda", "trackcore.association.jpda",
 ]
 
 

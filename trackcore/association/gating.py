@@ -48,6 +48,12 @@ def gate_threshold(pg, d):
     ``pg`` in (0, 1]; ``pg = 1`` gives ``gamma = inf``: no gate, every
     measurement is validated, and the clutter density must be parametric (the
     gate has no finite volume; see the module docstring).
+
+    Examples
+    --------
+    >>> from trackcore.association import gate_threshold
+    >>> round(gate_threshold(0.99, 2), 4)      # 99 % gate in two dimensions
+    9.2103
     """
     pg = as_probability(pg, "pg", open_low=True)
     d = as_int(d, "d", minimum=1)
@@ -57,7 +63,16 @@ def gate_threshold(pg, d):
 
 
 def gate_probability(gamma, d):
-    """``P_G = P(chi2_d <= gamma)``, the inverse of :func:`gate_threshold`."""
+    """``P_G = P(chi2_d <= gamma)``, the inverse of :func:`gate_threshold`.
+
+    Examples
+    --------
+    >>> from trackcore.association import gate_probability, gate_threshold
+    >>> round(gate_probability(9.2103, 2), 4)
+    0.99
+    >>> round(gate_probability(gate_threshold(0.95, 3), 3), 6)
+    0.95
+    """
     gamma = as_nonnegative(gamma, "gamma") if not (isinstance(gamma, float) and gamma == math.inf) else gamma
     d = as_int(d, "d", minimum=1)
     if gamma == math.inf:
@@ -66,7 +81,17 @@ def gate_probability(gamma, d):
 
 
 def unit_ball_volume(d):
-    """``c_d = pi^{d/2} / Gamma(d/2 + 1)`` (2 for d=1, pi for d=2, 4pi/3 for d=3)."""
+    """``c_d = pi^{d/2} / Gamma(d/2 + 1)`` (2 for d=1, pi for d=2, 4pi/3 for d=3).
+
+    Examples
+    --------
+    >>> import math
+    >>> from trackcore.association import unit_ball_volume
+    >>> [round(unit_ball_volume(d), 4) for d in (1, 2, 3)]
+    [2.0, 3.1416, 4.1888]
+    >>> round(4 * math.pi / 3, 4)
+    4.1888
+    """
     d = as_int(d, "d", minimum=1)
     return float(math.exp(0.5 * d * math.log(math.pi) - math.lgamma(0.5 * d + 1.0)))
 
@@ -81,7 +106,15 @@ def gate_volume(gamma, S):
 
     ``gamma = inf`` (``pg = 1``, no gate) raises ``ValueError``: that gate has no
     finite volume, and the nonparametric clutter density ``m / V`` that would use
-    it is undefined (use the parametric density)."""
+    it is undefined (use the parametric density).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.association import gate_volume
+    >>> round(gate_volume(9.0, np.diag([4.0, 1.0])), 3)    # pi * 9 * 2
+    56.549
+    """
     if as_scalar(gamma, "gamma", finite=False) == math.inf:
         raise ValueError(_NO_GATE_VOLUME)
     gamma = as_nonnegative(gamma, "gamma")
@@ -131,6 +164,15 @@ def mahalanobis_gate(z, z_pred, S, gamma, angle_index=None):
     ``S`` ``(d, d)`` positive definite innovation covariance; ``gamma`` the
     threshold (``>= 0``, ``inf`` accepts all); ``angle_index``: index of an
     angular measurement component whose innovation is wrapped to (-pi, pi].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.association import mahalanobis_gate
+    >>> z = np.array([[1.0, 0.0], [0.0, 5.0], [2.0, 2.0]])
+    >>> mask, d2 = mahalanobis_gate(z, [0.0, 0.0], np.eye(2), gamma=9.21)
+    >>> print(mask, d2)
+    [ True False  True] [ 1. 25.  8.]
     """
     z_pred = as_vector(z_pred, "z_pred")
     d = z_pred.shape[0]

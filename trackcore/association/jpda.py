@@ -267,7 +267,17 @@ def _check_valid(valid, name="valid"):
 
 
 def feature_validation(valid, rho, c_I=FEATURE_THRESHOLD):
-    """The feature validation matrix of eq (5): ``valid & (rho >= c_I)``."""
+    """The feature validation matrix of eq (5): ``valid & (rho >= c_I)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.association import feature_validation
+    >>> valid = np.array([[True, True], [True, False]])
+    >>> rho = np.array([[0.9, 0.3], [0.7, 0.95]])
+    >>> feature_validation(valid, rho).tolist()    # a feature correlation below 0.6 removes a pair
+    [[True, False], [True, False]]
+    """
     valid = _check_valid(valid)
     rho = as_array(rho, "rho", shape=valid.shape)
     if rho.size and (rho.min() < -1 - 1e-12 or rho.max() > 1 + 1e-12):
@@ -334,6 +344,14 @@ def feasible_event_count(valid):
     below ``2**53``; above, a ``float`` to double precision, ``math.inf`` beyond the
     largest double (about 1.8e308).  Raises ``ValueError`` naming the limit when the net
     exceeds its limits.
+
+    Examples
+    --------
+    >>> from trackcore.association import feasible_event_count
+    >>> valid = [[True, True],      # measurement 0 in both gates
+    ...          [False, True]]     # measurement 1 in target 1's gate only
+    >>> feasible_event_count(valid)
+    5
     """
     valid = _check_valid(valid)
     if valid.shape[0] == 0:
@@ -349,6 +367,13 @@ def feasible_events(valid):
     Rows are sorted lexicographically with misses first.  Raises ``ValueError`` when
     there are more than ``MAX_LISTED_EVENTS`` (10**7) events or the listing would have
     more than ``MAX_LISTED_ENTRIES`` (2 * 10**7, events x targets) entries.
+
+    Examples
+    --------
+    >>> from trackcore.association import feasible_events
+    >>> valid = [[True, True], [False, True]]
+    >>> feasible_events(valid).tolist()      # per event, the measurement of each target (-1: missed)
+    [[-1, -1], [-1, 0], [-1, 1], [0, -1], [0, 1]]
     """
     valid = _check_valid(valid)
     m, T = valid.shape
@@ -436,6 +461,23 @@ def jpda_marginals(lik, valid, pd, lam, rho=None, mode="parametric", V=None,
     net a problem over ``MAX_SLOTS``, ``MAX_CELLS`` or ``MAX_COST``
     (``trackcore/association/_jpda_net.py``), with a ``ValueError`` naming the limit
     and the size of the problem, before any work.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.association import jpda_marginals
+    >>> lik = np.array([[0.10, 0.02],
+    ...                 [0.00, 0.08]])              # (m = 2 measurements, T = 2 targets)
+    >>> valid = lik > 0
+    >>> beta, n_events = jpda_marginals(lik, valid, pd=0.9, lam=0.01)
+    >>> n_events
+    5
+    >>> print(np.round(beta, 3))                  # rows: missed, measurement 0, measurement 1
+    [[0.014 0.014]
+     [0.986 0.003]
+     [0.    0.984]]
+    >>> print(beta.sum(axis=0))
+    [1. 1.]
     """
     if method not in ("auto", "enumerate", "net"):
         raise ValueError(f"method must be 'auto', 'enumerate' or 'net', got {method!r}")
@@ -605,6 +647,15 @@ def permanent(A):
     is the cheaper), otherwise the recursion over subsets of rows (``O(n 2^T T)``); a
     ``ValueError`` names the limit ``MAX_PERMANENT_OPERATIONS`` and the shape when the
     chosen method needs more operations (counted in exact integers: no overflow).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.association import permanent
+    >>> round(permanent(np.array([[1.0, 2.0], [3.0, 4.0]])), 6)    # 1*4 + 2*3
+    10.0
+    >>> round(permanent(np.ones((2, 3))), 6)                       # 3 * 2 injective maps
+    6.0
     """
     A = as_array(A, "A", ndim=2)
     T, n = A.shape
@@ -632,6 +683,19 @@ def jpda_clusters(valid):
     per cluster that contains at least one track (tracks with empty gates
     form singleton clusters with no measurements).  Measurements validated by
     no track belong to no cluster.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.association import jpda_clusters
+    >>> valid = np.array([[True, False, False],
+    ...                   [True, True, False],
+    ...                   [False, False, True]])    # (m = 3 measurements, T = 3 tracks)
+    >>> for tracks, meas in jpda_clusters(valid):
+    ...     print(tracks.tolist(), meas.tolist())
+    ...
+    [0, 1] [0, 1]
+    [2] [2]
     """
     valid = _check_valid(valid)
     m, T = valid.shape

@@ -53,7 +53,19 @@ _BETA_SUM_TOL = 1e-9
 
 
 class PDAUpdate(NamedTuple):
-    """Result of :func:`pda_update`."""
+    """Result of :func:`pda_update`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.association import pda_update
+    >>> upd = pda_update(np.zeros(2), np.eye(2), [[1.0]], [0.0], [[1.0, 0.0]], [[1.0]],
+    ...                  betas=[0.6], beta0=0.4)
+    >>> upd._fields
+    ('x', 'P', 'innovation_combined', 'S', 'K')
+    >>> print(np.round(upd.x, 3), np.round(upd.innovation_combined, 3))
+    [0.3 0. ] [0.6]
+    """
     x: np.ndarray                    # updated mean (n,)
     P: np.ndarray                    # updated covariance with spread term (n, n)
     innovation_combined: np.ndarray  # nu = sum_j beta_j nu_j (d,)
@@ -157,6 +169,18 @@ def pda_betas(lik=None, pd=1.0, pg=1.0, clutter_density=None, *, log_lik=None,
     ``beta0 + sum(betas) = 1``.  ``m = 0`` gives ``beta0 = 1``.  Raises
     ``ValueError`` when every hypothesis has zero probability (e.g. no
     clutter, ``P_D P_G = 1`` and all likelihoods zero).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.association import pda_betas
+    >>> lik = np.array([0.05, 0.01])            # N(nu_j; 0, S) of two gated measurements
+    >>> beta0, betas = pda_betas(lik, pd=0.9, pg=0.99, clutter_density=0.001)
+    >>> round(beta0, 4), np.round(betas, 4)
+    (0.002, array([0.8317, 0.1663]))
+    >>> beta0, betas = pda_betas([], pd=0.9, pg=0.99, clutter_density=0.001)   # empty scan
+    >>> beta0, betas.shape
+    (1.0, (0,))
     """
     ll, log_pd, log_miss, log_lam = _log_terms(lik, pd, pg, clutter_density, log_lik, mode,
                                                volume, log_clutter_density)
@@ -179,7 +203,18 @@ def pda_log_likelihood(lik=None, pd=1.0, pg=1.0, clutter_density=None, *, log_li
     sum_j L_j``, which is the expression above times the common factor
     ``V^-m (V / m)`` for ``m > 0``.  For an empty scan it is ``1 - P_D P_G``,
     the probability of a missed detection, and that is what is returned (not
-    ``log 0``)."""
+    ``log 0``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.association import pda_log_likelihood
+    >>> ll = pda_log_likelihood([0.05, 0.01], pd=0.9, pg=0.99, clutter_density=0.001)
+    >>> round(ll, 4), round(float(np.log(0.001 * (1 - 0.9 * 0.99) + 0.9 * 0.06)), 4)
+    (-2.9168, -2.9168)
+    >>> round(pda_log_likelihood([], pd=0.9, pg=0.99, mode="nonparametric", volume=10.0), 4)
+    -2.2164
+    """
     ll, log_pd, log_miss, log_lam = _log_terms(lik, pd, pg, clutter_density, log_lik, mode,
                                                volume, log_clutter_density)
     if mode == "nonparametric" and ll.shape[0] == 0:
@@ -269,6 +304,20 @@ def pda_update(x_pred, P_pred, z, z_pred, H, R, betas, beta0, angle_index=None):
     ``betas`` ``(m,)`` and ``beta0`` from :func:`pda_betas` (they must be
     non-negative and sum to one), ``angle_index`` an angular measurement
     component whose innovations are wrapped to (-pi, pi].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.association import pda_update
+    >>> x, P = np.zeros(2), np.eye(2)              # [position, velocity]
+    >>> H, R = np.array([[1.0, 0.0]]), np.array([[1.0]])
+    >>> z = np.array([[1.0], [-1.0]])              # two gated measurements
+    >>> upd = pda_update(x, P, z, [0.0], H, R, betas=[0.45, 0.45], beta0=0.1)
+    >>> print(np.round(upd.x, 3))                 # the innovations cancel ...
+    [0. 0.]
+    >>> print(np.round(upd.P, 3))                 # ... but their spread inflates P
+    [[0.775 0.   ]
+     [0.    1.   ]]
     """
     x_pred = as_vector(x_pred, "x_pred")
     n = x_pred.shape[0]

@@ -69,6 +69,17 @@ def logsumexp(a, axis=None):
     of a zero sum).  NaN and ``+inf`` entries raise ``ValueError``, as in
     :func:`normalize_log_weights`: a term of infinite mass leaves nothing to
     compare the others with.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.core import logsumexp
+    >>> round(logsumexp(np.array([1000.0, 1000.0])), 4)       # no overflow: 1000 + log 2
+    1000.6931
+    >>> logsumexp(np.array([-np.inf, -np.inf]))              # zero total mass
+    -inf
+    >>> print(np.round(logsumexp(np.log([[1.0, 3.0], [2.0, 2.0]]), axis=1), 4))
+    [1.3863 1.3863]
     """
     arr = as_array(a, "a", finite=False)
     if np.any(np.isnan(arr)) or np.any(arr == np.inf):
@@ -93,6 +104,14 @@ def normalize_log_weights(logw):
 
     Raises ``ValueError`` when every weight is zero (all ``-inf``): there is
     no distribution to normalise, and silently returning NaN would hide it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.core import normalize_log_weights
+    >>> logw, log_total = normalize_log_weights(np.log([1.0, 3.0]))
+    >>> print(np.round(np.exp(logw), 4), round(log_total, 4))
+    [0.25 0.75] 1.3863
     """
     w = as_array(logw, "logw", ndim=1, finite=False).copy()
     if np.any(np.isnan(w)) or np.any(w == np.inf):
@@ -127,6 +146,17 @@ def gaussian_logpdf(x, mean, cov):
 
     ``x`` may be one point ``(n,)`` or a batch ``(k, n)`` (returns ``(k,)``).
     ``cov`` must be symmetric positive definite.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.core import LOG_2PI, gaussian_logpdf
+    >>> round(gaussian_logpdf([0.0, 0.0], [0.0, 0.0], np.eye(2)), 4)
+    -1.8379
+    >>> round(-LOG_2PI, 4)                                    # the same: log(1 / (2 pi))
+    -1.8379
+    >>> round(gaussian_logpdf([1.0], [0.0], [[4.0]]), 4)
+    -1.7371
     """
     mean = as_vector(mean, "mean")
     n = mean.shape[0]

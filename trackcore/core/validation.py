@@ -45,6 +45,17 @@ def as_array(x, name: str, *, ndim=None, shape=None, finite: bool = True,
     non-numeric input (strings, objects, complex, booleans are accepted as 0/1
     only when they come as numeric arrays) and ``ValueError`` for a wrong shape
     or non-finite entries.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.core import as_array
+    >>> as_array([1, 2, 3], "x", ndim=1)
+    array([1., 2., 3.])
+    >>> as_array([[1.0, np.nan]], "P")
+    Traceback (most recent call last):
+        ...
+    ValueError: P must contain only finite values (found NaN or inf)
     """
     if isinstance(x, (str, bytes)) or x is None:
         raise TypeError(f"{name} must be a numeric array, got {_describe(x)}")
@@ -76,16 +87,51 @@ def as_array(x, name: str, *, ndim=None, shape=None, finite: bool = True,
 
 
 def as_vector(x, name: str, n: int | None = None, *, finite: bool = True) -> np.ndarray:
-    """A 1-D float64 array, optionally of length ``n``."""
+    """A 1-D float64 array, optionally of length ``n``.
+
+    Examples
+    --------
+    >>> from trackcore.core import as_vector
+    >>> as_vector([1, 2], "x0", 2)
+    array([1., 2.])
+    >>> as_vector([1, 2, 3], "x0", 2)
+    Traceback (most recent call last):
+        ...
+    ValueError: x0 must have shape (2), got (3,)
+    """
     return as_array(x, name, shape=(n,), finite=finite)
 
 
 def as_matrix(x, name: str, shape=(None, None), *, finite: bool = True) -> np.ndarray:
-    """A 2-D float64 array of the given shape (``None`` = any size)."""
+    """A 2-D float64 array of the given shape (``None`` = any size).
+
+    Examples
+    --------
+    >>> from trackcore.core import as_matrix
+    >>> as_matrix([[1, 0, 0]], "H", (1, None))
+    array([[1., 0., 0.]])
+    >>> as_matrix([1, 0], "H")
+    Traceback (most recent call last):
+        ...
+    ValueError: H must have shape (any, any), got (2,)
+    """
     return as_array(x, name, shape=tuple(shape), finite=finite)
 
 
 def as_square_matrix(x, name: str, n: int | None = None) -> np.ndarray:
+    """A 2-D float64 square matrix, optionally ``n`` by ``n``.
+
+    Examples
+    --------
+    >>> from trackcore.core import as_square_matrix
+    >>> as_square_matrix([[1, 2], [3, 4]], "F", 2)
+    array([[1., 2.],
+           [3., 4.]])
+    >>> as_square_matrix([[1, 2, 3]], "F")
+    Traceback (most recent call last):
+        ...
+    ValueError: F must be square, got shape (1, 3)
+    """
     arr = as_array(x, name, ndim=2)
     if arr.shape[0] != arr.shape[1] or (n is not None and arr.shape[0] != n):
         want = f"({n}, {n})" if n is not None else "square"
@@ -122,6 +168,17 @@ def as_covariance(x, name: str, n: int | None = None, *, strict: bool = False,
     fails through the rounding of the computation itself; it is returned with its
     negative eigenvalues set to 0 (:func:`psd_projection`).  Results that pass the
     rule are returned as computed.
+
+    Examples
+    --------
+    >>> from trackcore.core import as_covariance
+    >>> as_covariance([[2.0, 1.0], [1.0, 2.0]], "P", 2)
+    array([[2., 1.],
+           [1., 2.]])
+    >>> as_covariance([[1.0, 2.0], [2.0, 1.0]], "P")    # eigenvalues 3 and -1
+    Traceback (most recent call last):
+        ...
+    ValueError: P must be positive semi-definite (smallest eigenvalue -1)
     """
     arr = as_square_matrix(x, name, n)
     if arr.size == 0:
@@ -204,6 +261,18 @@ def as_measurements(z, name: str, d: int | None = None) -> np.ndarray:
     Accepts ``[]`` or an empty array for an empty scan (returned as shape
     ``(0, d)`` when ``d`` is known) and a 1-D array of length ``d`` as one
     measurement.
+
+    Examples
+    --------
+    >>> from trackcore.core import as_measurements
+    >>> as_measurements([], "z", 2).shape           # an empty scan
+    (0, 2)
+    >>> as_measurements([3.0, 4.0], "z", 2)         # one measurement
+    array([[3., 4.]])
+    >>> as_measurements([[1.0, 2.0, 3.0]], "z", 2)
+    Traceback (most recent call last):
+        ...
+    ValueError: z must have shape (m, 2), got (1, 3)
     """
     if isinstance(z, (list, tuple)) and len(z) == 0:
         return np.zeros((0, d if d is not None else 0))
@@ -225,6 +294,19 @@ def as_measurements(z, name: str, d: int | None = None) -> np.ndarray:
 
 
 def as_scalar(x, name: str, *, finite: bool = True) -> float:
+    """A real number as a ``float`` (``finite``: also finite); a one-entry array is accepted.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.core import as_scalar
+    >>> as_scalar(np.array([2]), "T")
+    2.0
+    >>> as_scalar(True, "T")
+    Traceback (most recent call last):
+        ...
+    TypeError: T must be a real number, got bool
+    """
     if isinstance(x, (bool, np.bool_)) or isinstance(x, (str, bytes)) or x is None:
         raise TypeError(f"{name} must be a real number, got {_describe(x)}")
     if isinstance(x, np.ndarray):
@@ -240,6 +322,18 @@ def as_scalar(x, name: str, *, finite: bool = True) -> float:
 
 
 def as_positive(x, name: str) -> float:
+    """A finite number ``> 0`` as a ``float``.
+
+    Examples
+    --------
+    >>> from trackcore.core import as_positive
+    >>> as_positive(2, "T")
+    2.0
+    >>> as_positive(0.0, "T")
+    Traceback (most recent call last):
+        ...
+    ValueError: T must be > 0, got 0.0
+    """
     v = as_scalar(x, name)
     if v <= 0:
         raise ValueError(f"{name} must be > 0, got {v}")
@@ -247,6 +341,18 @@ def as_positive(x, name: str) -> float:
 
 
 def as_nonnegative(x, name: str) -> float:
+    """A finite number ``>= 0`` as a ``float``.
+
+    Examples
+    --------
+    >>> from trackcore.core import as_nonnegative
+    >>> as_nonnegative(0, "q")
+    0.0
+    >>> as_nonnegative(-1e-3, "q")
+    Traceback (most recent call last):
+        ...
+    ValueError: q must be >= 0, got -0.001
+    """
     v = as_scalar(x, name)
     if v < 0:
         raise ValueError(f"{name} must be >= 0, got {v}")
@@ -254,7 +360,18 @@ def as_nonnegative(x, name: str) -> float:
 
 
 def as_probability(p, name: str, *, open_low: bool = False, open_high: bool = False) -> float:
-    """A probability in [0, 1]; ``open_low``/``open_high`` exclude 0/1."""
+    """A probability in [0, 1]; ``open_low``/``open_high`` exclude 0/1.
+
+    Examples
+    --------
+    >>> from trackcore.core import as_probability
+    >>> as_probability(0.9, "pd")
+    0.9
+    >>> as_probability(1.0, "pd", open_high=True)
+    Traceback (most recent call last):
+        ...
+    ValueError: pd must be a probability in [0, 1), got 1.0
+    """
     v = as_scalar(p, name)
     lo_ok = v > 0 if open_low else v >= 0
     hi_ok = v < 1 if open_high else v <= 1
@@ -266,6 +383,18 @@ def as_probability(p, name: str, *, open_low: bool = False, open_high: bool = Fa
 
 
 def as_probabilities(p, name: str, *, shape=None) -> np.ndarray:
+    """A float64 array (of ``shape``, if given) whose entries are probabilities in [0, 1].
+
+    Examples
+    --------
+    >>> from trackcore.core import as_probabilities
+    >>> as_probabilities([0.9, 0.5], "pd", shape=(2,))
+    array([0.9, 0.5])
+    >>> as_probabilities([0.9, 1.5], "pd")
+    Traceback (most recent call last):
+        ...
+    ValueError: pd must contain probabilities in [0, 1]
+    """
     arr = as_array(p, name, shape=shape)
     if arr.size and (arr.min() < 0 or arr.max() > 1):
         raise ValueError(f"{name} must contain probabilities in [0, 1]")
@@ -281,6 +410,16 @@ def as_int(n, name: str, *, minimum: int | None = None) -> int:
 
     Integers must fit in 64 bits, since kernels take them as ``int64``; a float must
     be at most ``2**53`` in magnitude, beyond which it no longer holds every integer.
+
+    Examples
+    --------
+    >>> from trackcore.core import as_int
+    >>> as_int(5, "K", minimum=1)
+    5
+    >>> as_int(2.5, "K")
+    Traceback (most recent call last):
+        ...
+    TypeError: K must be an integer, got float 2.5
     """
     if isinstance(n, (bool, np.bool_)) or not isinstance(n, (numbers.Integral,)):
         if isinstance(n, (float, np.floating)) and math.isfinite(n) and float(n).is_integer():
@@ -301,12 +440,36 @@ def as_int(n, name: str, *, minimum: int | None = None) -> int:
 
 
 def as_count(n, name: str) -> int:
-    """A non-negative integer count."""
+    """A non-negative integer count.
+
+    Examples
+    --------
+    >>> from trackcore.core import as_count
+    >>> as_count(3.0, "n_runs")
+    3
+    >>> as_count(-1, "n_runs")
+    Traceback (most recent call last):
+        ...
+    ValueError: n_runs must be >= 0, got -1
+    """
     return as_int(n, name, minimum=0)
 
 
 def as_rng(rng, name: str = "rng") -> np.random.Generator:
-    """Require an explicit ``numpy.random.Generator`` (no hidden global state)."""
+    """Require an explicit ``numpy.random.Generator`` (no hidden global state).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.core import as_rng
+    >>> rng = np.random.default_rng(0)
+    >>> as_rng(rng) is rng
+    True
+    >>> as_rng(0)
+    Traceback (most recent call last):
+        ...
+    TypeError: rng must be a numpy.random.Generator (e.g. numpy.random.default_rng(seed)), got int
+    """
     if not isinstance(rng, np.random.Generator):
         raise TypeError(
             f"{name} must be a numpy.random.Generator (e.g. numpy.random.default_rng(seed)), "
@@ -315,6 +478,18 @@ def as_rng(rng, name: str = "rng") -> np.random.Generator:
 
 
 def as_bool_matrix(x, name: str, shape=(None, None)) -> np.ndarray:
+    """A 2-D boolean array (of ``shape``, ``None`` = any size); 0/1 numbers are accepted.
+
+    Examples
+    --------
+    >>> from trackcore.core import as_bool_matrix
+    >>> as_bool_matrix([[1, 0], [0, 1]], "valid").tolist()
+    [[True, False], [False, True]]
+    >>> as_bool_matrix([[2, 0]], "valid")
+    Traceback (most recent call last):
+        ...
+    ValueError: valid must contain only 0/1 or booleans
+    """
     arr = np.asarray(x)
     if arr.dtype != np.bool_:
         if arr.dtype == object or not np.issubdtype(arr.dtype, np.number):
@@ -331,7 +506,18 @@ def as_bool_matrix(x, name: str, shape=(None, None)) -> np.ndarray:
 def as_offsets(offsets, total: int, name: str = "offsets", *, min_scans: int = 0) -> np.ndarray:
     """Scan offsets of a concatenated run: a 1-D integer array of length ``K + 1``
     (``K >= min_scans``) rising from 0 to ``total`` (the number of measurements), so that
-    scan ``k`` is ``z[offsets[k]:offsets[k + 1]]``.  Returns a contiguous int64 copy."""
+    scan ``k`` is ``z[offsets[k]:offsets[k + 1]]``.  Returns a contiguous int64 copy.
+
+    Examples
+    --------
+    >>> from trackcore.core import as_offsets
+    >>> as_offsets([0, 2, 2, 5], 5).tolist()       # 3 scans of 2, 0 and 3 measurements
+    [0, 2, 2, 5]
+    >>> as_offsets([0, 3, 2], 2)
+    Traceback (most recent call last):
+        ...
+    ValueError: offsets must start at 0, be non-decreasing and end at the number of ...
+    """
     off = np.asarray(offsets)
     if off.ndim != 1 or off.size < 1 + min_scans or not np.issubdtype(off.dtype, np.integer):
         raise ValueError(f"{name} must be a 1-D integer array of length K + 1 >= {1 + min_scans}, "
@@ -347,7 +533,19 @@ def finite_result(x, what: str, cause: str):
     """Return ``x`` (a number or an array) if every entry is finite, else raise
     ``ValueError``: finite inputs whose ``what`` overflows (or becomes NaN through an
     overflow) get a clear error naming the arguments in ``cause``, never a silent
-    ``inf`` or NaN."""
+    ``inf`` or NaN.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.core import finite_result
+    >>> finite_result(2.0, "the gain", "P and R")
+    2.0
+    >>> finite_result(np.array([1.0, np.inf]), "the gain", "P and R")
+    Traceback (most recent call last):
+        ...
+    ValueError: the gain is not finite in floating point (it overflows); check the ...
+    """
     arr = np.asarray(x)
     if arr.dtype.kind in "fc" and arr.size and not np.all(np.isfinite(arr)):
         raise ValueError(f"{what} is not finite in floating point (it overflows); "
