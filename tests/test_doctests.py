@@ -28,6 +28,7 @@ WITH_EXAMPLES = [
     "trackcore.core.logmath", "trackcore.core.rng", "trackcore.core.validation",
     "trackcore.filters.kalman", "trackcore.filters.imm", "trackcore.filters.particle",
     "trackcore.association.gating", "trackcore.association.pda", "trackcore.association.jpda",
+    "trackcore.metrics", "trackcore.stats",
 ]
 
 
