@@ -26,6 +26,7 @@ FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 #: Modules whose every public callable carries an ``Examples`` section with ``>>>`` lines.
 WITH_EXAMPLES = [
     "trackcore.core.logmath", "trackcore.core.rng", "trackcore.core.validation",
+    "trackcore.models.motion", "trackcore.models.measurement", "trackcore.models.modified_polar",
     "trackcore.filters.kalman", "trackcore.filters.imm", "trackcore.filters.particle",
     "trackcore.association.gating", "trackcore.association.pda", "trackcore.association.jpda",
     "trackcore.metrics", "trackcore.stats",

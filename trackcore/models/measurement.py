@@ -39,7 +39,15 @@ _TWO_PI = 2.0 * math.pi
 
 
 def position_matrix(dim=2, n=4):
-    """``H = [I_dim, 0]`` of shape ``(dim, n)``: observe the positions of a state."""
+    """``H = [I_dim, 0]`` of shape ``(dim, n)``: observe the positions of a state.
+
+    Examples
+    --------
+    >>> from trackcore.models import position_matrix
+    >>> print(position_matrix(dim=2, n=4))
+    [[1. 0. 0. 0.]
+     [0. 1. 0. 0.]]
+    """
     dim = as_int(dim, "dim", minimum=1)
     n = as_int(n, "n", minimum=1)
     if n < dim:
@@ -64,7 +72,17 @@ def _wrap_array_kernel(a, out):
 
 
 def wrap_angle(a):
-    """Wrap angles (radians, scalar or array) to ``(-pi, pi]``."""
+    """Wrap angles (radians, scalar or array) to ``(-pi, pi]``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.models import wrap_angle
+    >>> round(wrap_angle(3 * np.pi / 2), 4)
+    -1.5708
+    >>> print(np.round(wrap_angle(np.array([-np.pi, np.pi, 7.0])), 4))
+    [3.1416 3.1416 0.7168]
+    """
     if np.ndim(a) == 0 and not isinstance(a, np.ndarray):
         return float(wrap_angle_kernel(as_scalar(a, "a")))
     arr = as_array(a, "a")
@@ -124,6 +142,17 @@ def range_bearing(x, sensor=None):
     """``h(x) = [r, atan2(y - sy, x - sx)]`` for a state ``[x, y, ...]`` or a batch.
 
     Returns ``(2,)`` for one state, ``(N, 2)`` for ``(N, n)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.models import range_bearing
+    >>> print(np.round(range_bearing([3.0, 4.0, 1.0, 0.0]), 4))             # [r, bearing]
+    [5.     0.9273]
+    >>> print(np.round(range_bearing([3.0, 4.0, 0.0, 0.0], sensor=[3.0, 0.0]), 4))
+    [4.     1.5708]
+    >>> range_bearing(np.zeros((5, 4)) + [1.0, 1.0, 0.0, 0.0]).shape        # a batch of states
+    (5, 2)
     """
     X = _states(x, "x", 2)
     s = _sensor(sensor)
@@ -162,6 +191,14 @@ def range_bearing_jacobian(x, sensor=None):
 
     Rows: ``[x/r, y/r, 0...]`` and ``[-y/r^2, x/r^2, 0...]`` (relative to the
     sensor).  Raises ``ValueError`` at zero range.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.models import range_bearing_jacobian
+    >>> print(np.round(range_bearing_jacobian([3.0, 4.0, 0.0, 0.0]), 4))
+    [[ 0.6   0.8   0.    0.  ]
+     [-0.16  0.12  0.    0.  ]]
     """
     X = _states(x, "x", 2)
     s = _sensor(sensor)
@@ -209,6 +246,13 @@ def range_bearing_doppler(x_rel):
     ``x_rel`` is target minus sensor (position and velocity), one state
     ``(n,)`` or a batch ``(N, n)``.  Raises ``ValueError`` at zero range, where
     the range rate is undefined.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.models import range_bearing_doppler
+    >>> print(np.round(range_bearing_doppler([3.0, 4.0, 3.0, 4.0]), 4))   # moving straight away
+    [5.     0.9273 5.    ]
     """
     X = _states(x_rel, "x_rel", 4)
     single = X.ndim == 1
@@ -258,6 +302,16 @@ def range_bearing_doppler_jacobian(x_rel):
     """Jacobian of :func:`range_bearing_doppler`: ``(3, n)`` or ``(N, 3, n)``.
 
     Raises ``ValueError`` at zero range.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.models import range_bearing_doppler_jacobian
+    >>> J = range_bearing_doppler_jacobian([3.0, 4.0, 0.0, 1.0])
+    >>> J.shape
+    (3, 4)
+    >>> print(np.round(J[2], 4))           # d(range rate) / d[x, y, vx, vy]
+    [-0.096  0.072  0.6    0.8  ]
     """
     X = _states(x_rel, "x_rel", 4)
     single = X.ndim == 1
@@ -292,6 +346,16 @@ def polar_to_cartesian(z, sensor=None):
     """Convert ``[r, bearing]`` (``(2,)`` or ``(m, 2)``) to Cartesian ``[x, y]``.
 
     ``m = 0`` scans are returned as ``(0, 2)``.  Ranges must be >= 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.models import polar_to_cartesian
+    >>> print(np.round(polar_to_cartesian([2.0, np.pi / 2]), 4))
+    [0. 2.]
+    >>> print(np.round(polar_to_cartesian([[1.0, 0.0], [1.0, np.pi]], sensor=[10.0, 0.0]), 4))
+    [[11.  0.]
+     [ 9.  0.]]
     """
     Z = as_array(z, "z", ndim=(1, 2))
     if Z.shape[-1] != 2 and Z.size:
@@ -312,6 +376,15 @@ def converted_measurement_covariance(r, bearing, sigma_r, sigma_bearing):
     ``R_xy = J diag(sigma_r^2, sigma_bearing^2) J^T`` with
     ``J = [[cos b, -r sin b], [sin b, r cos b]]`` (Bar-Shalom et al. 2001,
     sec. 10.4.3, first-order conversion).  Returns a 2x2 matrix.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.models import converted_measurement_covariance
+    >>> R = converted_measurement_covariance(1000.0, 0.0, sigma_r=10.0, sigma_bearing=0.01)
+    >>> print(np.round(R, 3))              # along the x axis: range error in x, bearing error in y
+    [[100.   0.]
+     [  0. 100.]]
     """
     r = as_nonnegative(r, "r")
     b = as_scalar(bearing, "bearing")

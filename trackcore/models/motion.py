@@ -47,6 +47,16 @@ def kron_axes(M, dim=2):
 
     Returns ``kron(M, I_dim)``, i.e. the layout ``[p_x, p_y, v_x, v_y]`` for a
     2x2 ``M`` and ``dim=2``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.models import kron_axes
+    >>> print(kron_axes(np.array([[1.0, 2.0], [0.0, 1.0]]), dim=2))
+    [[1. 0. 2. 0.]
+     [0. 1. 0. 2.]
+     [0. 0. 1. 0.]
+     [0. 0. 0. 1.]]
     """
     M = as_square_matrix(M, "M")
     d = _as_dim(dim)
@@ -57,6 +67,15 @@ def cv_transition(T, dim=2):
     """Constant-velocity transition matrix ``[[I, T I], [0, I]]`` of size 2*dim.
 
     ``T`` is the sampling interval (>= 0).
+
+    Examples
+    --------
+    >>> from trackcore.models import cv_transition
+    >>> print(cv_transition(0.5, dim=1))
+    [[1.  0.5]
+     [0.  1. ]]
+    >>> cv_transition(1.0).shape            # [x, y, vx, vy]
+    (4, 4)
     """
     T = as_nonnegative(T, "T")
     d = _as_dim(dim)
@@ -72,6 +91,16 @@ def cv_process_noise(T, q, dim=2, kind="dwna"):
     ``kind="cwna"`` (continuous white-noise acceleration, sec. 6.2.2): ``q`` is
     the power spectral density and per axis
     ``Q = q [[T^3/3, T^2/2], [T^2/2, T]]``.
+
+    Examples
+    --------
+    >>> from trackcore.models import cv_process_noise
+    >>> print(cv_process_noise(1.0, 1.0, dim=1))                  # q G G^T, G = [T^2/2, T]
+    [[0.25 0.5 ]
+     [0.5  1.  ]]
+    >>> print(cv_process_noise(1.0, 3.0, dim=1, kind="cwna"))     # q [[T^3/3, T^2/2], [T^2/2, T]]
+    [[1.  1.5]
+     [1.5 3. ]]
     """
     T = as_nonnegative(T, "T")
     q = as_nonnegative(q, "q")
@@ -104,6 +133,14 @@ def coordinated_turn_transition(omega, T):
     the sampling interval.  Uses ``sin(wT)/w = T sinc(wT)`` and
     ``(1 - cos wT)/w = T sin(wT/2) sinc(wT/2)``, so ``omega = 0`` gives the
     constant-velocity matrix without any division by zero.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.models import coordinated_turn_transition
+    >>> F = coordinated_turn_transition(np.pi / 2, 1.0)   # a quarter turn in one second
+    >>> print(np.round(F @ [0.0, 0.0, 1.0, 0.0], 4))     # [x, y, vx, vy]: heading east -> north
+    [0.6366 0.6366 0.     1.    ]
     """
     w = as_scalar(omega, "omega")
     T = as_nonnegative(T, "T")
@@ -125,6 +162,14 @@ def coordinated_turn_process_noise(T, q, kind="dwna"):
     With a known turn rate the usual choice (Bar-Shalom et al. 2001, sec. 11.7)
     is the constant-velocity noise of the same ``kind`` applied to both axes,
     so this returns ``cv_process_noise(T, q, dim=2, kind=kind)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.models import coordinated_turn_process_noise, cv_process_noise
+    >>> Q = coordinated_turn_process_noise(1.0, 0.5)
+    >>> Q.shape, bool(np.allclose(Q, cv_process_noise(1.0, 0.5)))
+    ((4, 4), True)
     """
     return cv_process_noise(T, q, dim=2, kind=kind)
 
@@ -180,6 +225,15 @@ def singer_transition(T, tau):
     ``tau`` is the manoeuvre time constant (alpha = 1/tau):
     ``[[1, T, (aT - 1 + e^{-aT})/a^2], [0, 1, (1 - e^{-aT})/a], [0, 0, e^{-aT}]]``.
     Use :func:`kron_axes` for several axes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.models import singer_transition
+    >>> print(np.round(singer_transition(1.0, tau=10.0), 4))       # state [p, v, a]
+    [[1.     1.     0.4837]
+     [0.     1.     0.9516]
+     [0.     0.     0.9048]]
     """
     T = as_nonnegative(T, "T")
     tau = as_positive(tau, "tau")
@@ -206,6 +260,16 @@ def singer_process_noise(T, tau, sigma_m):
     deviation ``sigma_m`` and time constant ``tau``, i.e. driving white noise of
     power spectral density ``2 sigma_m^2 / tau``.  The closed form is Singer's
     eq. (21), evaluated without cancellation for small ``T/tau``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.models import singer_process_noise
+    >>> Q = singer_process_noise(1.0, tau=10.0, sigma_m=2.0)
+    >>> print(np.round(Q, 4))
+    [[0.0379 0.0936 0.1207]
+     [0.0936 0.2476 0.3622]
+     [0.1207 0.3622 0.7251]]
     """
     T = as_nonnegative(T, "T")
     tau = as_positive(tau, "tau")
@@ -233,6 +297,18 @@ def van_loan_discretize(A, L_Qc_Lt, T):
     ``expm(-A T)``, so for strongly stable modes (eigenvalue ``-lambda`` with
     ``lambda T`` large) roughly ``e^{lambda T} * eps`` relative accuracy is lost;
     prefer closed forms there (e.g. :func:`singer_process_noise`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.models import van_loan_discretize, cv_process_noise
+    >>> A = np.array([[0.0, 1.0], [0.0, 0.0]])            # dp = v dt, dv = dw
+    >>> F, Q = van_loan_discretize(A, np.diag([0.0, 3.0]), 1.0)
+    >>> print(F)
+    [[1. 1.]
+     [0. 1.]]
+    >>> bool(np.allclose(Q, cv_process_noise(1.0, 3.0, dim=1, kind="cwna")))
+    True
     """
     A = as_square_matrix(A, "A")
     n = A.shape[0]
