@@ -29,6 +29,7 @@ WITH_EXAMPLES = [
     "trackcore.models.motion", "trackcore.models.measurement", "trackcore.models.modified_polar",
     "trackcore.filters.kalman", "trackcore.filters.imm", "trackcore.filters.particle",
     "trackcore.association.gating", "trackcore.association.pda", "trackcore.association.jpda",
+    "trackcore.detection.amplitude", "trackcore.detection.marcum",
     "trackcore.metrics", "trackcore.stats",
 ]
 

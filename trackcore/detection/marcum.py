@@ -433,22 +433,55 @@ def marcum_q1(a, b):
     module notes for the limit set by the conditioning of ``Q1``); use
     :func:`marcum_q1_complement` for ``1 - Q1`` when ``Q1`` is close to 1 and
     :func:`log_marcum_q1` when ``Q1`` underflows.  Returns a float for scalar input.
+
+    Examples
+    --------
+    >>> import math
+    >>> from trackcore.detection import marcum_q1
+    >>> round(float(marcum_q1(0.0, 2.0)), 6), round(math.exp(-2.0), 6)  # exp(-b^2 / 2)
+    (0.135335, 0.135335)
+    >>> round(float(marcum_q1(3.0, 1.0)), 4)
+    0.9892
     """
     return _q1(a, b, False, False)
 
 
 def marcum_q1_complement(a, b):
-    """``1 - Q1(a, b)`` computed directly (no cancellation when ``Q1 -> 1``)."""
+    """``1 - Q1(a, b)`` computed directly (no cancellation when ``Q1 -> 1``).
+
+    Examples
+    --------
+    >>> from trackcore.detection import marcum_q1_complement
+    >>> f"{float(marcum_q1_complement(10.0, 1.0)):.3e}"  # below machine epsilon
+    '3.414e-20'
+    """
     return _q1(a, b, True, False)
 
 
 def log_marcum_q1(a, b):
-    """``ln Q1(a, b)``, finite even where ``Q1`` underflows (``-inf`` only if ``Q1 = 0``)."""
+    """``ln Q1(a, b)``, finite even where ``Q1`` underflows (``-inf`` only if ``Q1 = 0``).
+
+    Examples
+    --------
+    >>> from trackcore.detection import log_marcum_q1
+    >>> round(float(log_marcum_q1(1.0, 50.0)), 2)         # Q1 itself underflows to 0
+    -1203.35
+    """
     return _q1(a, b, False, True)
 
 
 def log_marcum_q1_complement(a, b):
-    """``ln(1 - Q1(a, b))`` computed directly (``-inf`` at ``b = 0``)."""
+    """``ln(1 - Q1(a, b))`` computed directly (``-inf`` at ``b = 0``).
+
+    Examples
+    --------
+    >>> import math
+    >>> from trackcore.detection import log_marcum_q1_complement, marcum_q1
+    >>> round(float(log_marcum_q1_complement(2.0, 1.0)), 4)
+    -2.5024
+    >>> round(math.log(1 - float(marcum_q1(2.0, 1.0))), 4)
+    -2.5024
+    """
     return _q1(a, b, True, True)
 
 
@@ -490,6 +523,13 @@ def marcum_detection_probability(snr, pfa):
     ``snr``: *linear* signal-to-noise power ratio (``>= 0``; convert dB with
     ``10**(dB/10)``); ``pfa`` in the open interval (0, 1).  Broadcasts.  At
     ``snr = 0`` the result is ``pfa``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.detection import marcum_detection_probability
+    >>> print(np.round(marcum_detection_probability(np.array([1.0, 10.0, 30.0]), 1e-4), 4))
+    [0.0037 0.6161 0.9998]
     """
     return _pd(snr, pfa, False, False)
 
@@ -498,17 +538,42 @@ detection_probability = marcum_detection_probability
 
 
 def marcum_miss_probability(snr, pfa):
-    """``1 - P_D`` computed directly (accurate when ``P_D`` is close to 1)."""
+    """``1 - P_D`` computed directly (accurate when ``P_D`` is close to 1).
+
+    Examples
+    --------
+    >>> from trackcore.detection import marcum_miss_probability, marcum_detection_probability
+    >>> f"{float(marcum_miss_probability(100.0, 1e-6)):.3e}"
+    '1.921e-19'
+    >>> float(1 - marcum_detection_probability(100.0, 1e-6))      # the subtraction loses it
+    0.0
+    """
     return _pd(snr, pfa, True, False)
 
 
 def log_marcum_detection_probability(snr, pfa):
-    """``ln P_D`` (finite where ``P_D`` underflows)."""
+    """``ln P_D`` (finite where ``P_D`` underflows).
+
+    Examples
+    --------
+    >>> import math
+    >>> from trackcore.detection import log_marcum_detection_probability
+    >>> ln_pd = log_marcum_detection_probability(0.0, 1e-300)   # P_D = 1e-300 itself at zero SNR
+    >>> round(float(ln_pd), 3), round(math.log(1e-300), 3)
+    (-690.776, -690.776)
+    """
     return _pd(snr, pfa, False, True)
 
 
 def log_marcum_miss_probability(snr, pfa):
-    """``ln(1 - P_D)`` (finite where ``1 - P_D`` underflows)."""
+    """``ln(1 - P_D)`` (finite where ``1 - P_D`` underflows).
+
+    Examples
+    --------
+    >>> from trackcore.detection import log_marcum_miss_probability
+    >>> round(float(log_marcum_miss_probability(1000.0, 1e-6)), 1)   # 1 - P_D underflows to 0
+    -784.4
+    """
     return _pd(snr, pfa, True, True)
 
 
@@ -517,6 +582,12 @@ def swerling1_detection_probability(snr, pfa):
 
     Exponentially distributed target power, constant within the dwell, single
     square-law detection.  Broadcasts; returns a float for scalar input.
+
+    Examples
+    --------
+    >>> from trackcore.detection import swerling1_detection_probability
+    >>> round(float(swerling1_detection_probability(20.0, 1e-6)), 4)    # 1e-6 ** (1 / 21)
+    0.5179
     """
     S, P = _snr_pfa(snr, pfa)
     out = np.exp(np.log(P) / (1.0 + S))
@@ -524,7 +595,14 @@ def swerling1_detection_probability(snr, pfa):
 
 
 def swerling1_miss_probability(snr, pfa):
-    """``1 - pfa^(1/(1 + snr))`` computed with ``expm1`` (no cancellation)."""
+    """``1 - pfa^(1/(1 + snr))`` computed with ``expm1`` (no cancellation).
+
+    Examples
+    --------
+    >>> from trackcore.detection import swerling1_miss_probability
+    >>> f"{float(swerling1_miss_probability(1e12, 1e-6)):.4e}"  # no cancellation
+    '1.3816e-11'
+    """
     S, P = _snr_pfa(snr, pfa)
     out = -np.expm1(np.log(P) / (1.0 + S))
     return float(out) if out.shape == () else out
@@ -532,7 +610,14 @@ def swerling1_miss_probability(snr, pfa):
 
 def square_law_threshold(pfa):
     """Noise-normalised power threshold ``tau = -ln pfa`` of a square-law detector
-    (``ζ = |s + n|^2`` with ``n ~ CN(0, 1)``), and conversely ``pfa = exp(-tau)``."""
+    (``ζ = |s + n|^2`` with ``n ~ CN(0, 1)``), and conversely ``pfa = exp(-tau)``.
+
+    Examples
+    --------
+    >>> from trackcore.detection import square_law_threshold
+    >>> round(float(square_law_threshold(1e-6)), 4)        # -ln 1e-6
+    13.8155
+    """
     P = _array(pfa, "pfa")
     if P.size and np.any((P <= 0) | (P >= 1)):
         raise ValueError("pfa must lie in the open interval (0, 1)")
@@ -547,6 +632,13 @@ def rician_log_likelihood_ratio(zeta, snr):
     (non-fluctuating target of linear SNR ``S``).  Computed with the scaled Bessel function,
     so it does not overflow.  Divide by ``P_D / P_fa`` for the densities truncated at a
     threshold.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.detection import rician_log_likelihood_ratio
+    >>> print(np.round(rician_log_likelihood_ratio(np.array([0.0, 10.0, 1e4]), snr=10.0), 3))
+    [-10.      7.59  618.312]
     """
     from scipy.special import i0e
     z = _array(zeta, "zeta")
