@@ -30,7 +30,7 @@ WITH_EXAMPLES = [
     "trackcore.filters.kalman", "trackcore.filters.imm", "trackcore.filters.particle",
     "trackcore.association.gating", "trackcore.association.pda", "trackcore.association.jpda",
     "trackcore.detection.amplitude", "trackcore.detection.marcum",
-    "trackcore.metrics", "trackcore.stats",
+    "trackcore.metrics", "trackcore.stats", "trackcore.montecarlo", "trackcore.plotting",
 ]
 
 

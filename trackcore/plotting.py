@@ -43,6 +43,16 @@ def use_book_style() -> None:
 
     In a Jupyter kernel this also selects the inline backend, so notebooks render
     their figures the same way on every machine.
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> from trackcore.plotting import use_book_style
+    >>> with matplotlib.rc_context():          # restore the caller's style afterwards
+    ...     use_book_style()
+    ...     matplotlib.rcParams["figure.dpi"], matplotlib.rcParams["figure.figsize"][0]
+    ...
+    (150.0, 7.5)
     """
     from cycler import cycler
 
@@ -88,6 +98,17 @@ def plot_rmse_vs_time(ax, t, curves, shade=None, *, xlabel="time [s]", ylabel="R
     ``curves`` maps a legend label to an array of ``len(t)`` values; ``shade`` is a
     list of ``(start, stop)`` time intervals (e.g. manoeuvres) drawn as grey
     bands; ``styles`` optionally maps a label to ``Axes.plot`` keyword arguments.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from matplotlib.figure import Figure
+    >>> from trackcore.plotting import plot_rmse_vs_time
+    >>> ax = Figure().add_subplot()
+    >>> t = np.arange(5.0)
+    >>> ax = plot_rmse_vs_time(ax, t, {"CV": t + 1.0, "IMM": 0.5 * t + 1.0}, shade=[(1.0, 2.0)])
+    >>> [line.get_label() for line in ax.get_lines()]
+    ['CV', 'IMM']
     """
     _check_ax(ax)
     t = _as_float_array(t, "t", ndim=1)
@@ -128,6 +149,17 @@ def plot_tracks_2d(ax, truth, estimates, measurements=None, *, units="m"):
     or lists of them (one per target); ``estimates`` may also be a dict
     ``{label: array or list}``.  ``measurements`` is a list of ``(m, 2)`` Cartesian
     scans (``m = 0`` allowed) or one ``(M, 2)`` array, drawn as small dots.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from matplotlib.figure import Figure
+    >>> from trackcore.plotting import plot_tracks_2d
+    >>> truth = np.column_stack([np.arange(5.0), np.zeros(5)])
+    >>> ax = plot_tracks_2d(Figure().add_subplot(), truth, {"KF": truth + 0.1},
+    ...                     measurements=[np.array([[1.0, 0.2]]), np.zeros((0, 2))])
+    >>> ax.get_xlabel(), ax.get_ylabel()
+    ('x [m]', 'y [m]')
     """
     _check_ax(ax)
 
@@ -174,7 +206,18 @@ def plot_tracks_2d(ax, truth, estimates, measurements=None, *, units="m"):
 
 
 def plot_count_vs_scan(ax, scans, mean_counts, truth, *, ylabel="number of targets"):
-    """Mean estimated target count per scan for each method against the true count."""
+    """Mean estimated target count per scan for each method against the true count.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from matplotlib.figure import Figure
+    >>> from trackcore.plotting import plot_count_vs_scan
+    >>> ax = plot_count_vs_scan(Figure().add_subplot(), np.arange(4), {"PHD": [0.9, 1.8, 2.1, 2.0]},
+    ...                         truth=[1, 2, 2, 2])
+    >>> [line.get_label() for line in ax.get_lines()]
+    ['truth', 'PHD']
+    """
     _check_ax(ax)
     k = _as_float_array(scans, "scans", ndim=1)
     tr = _as_float_array(truth, "truth", ndim=1)
@@ -200,6 +243,17 @@ def plot_consistency(ax, t, values, bounds, label="NEES", *, xlabel="time [s]"):
     ``bounds`` is ``(lower, upper)`` as returned by
     :func:`trackcore.metrics.chi2_bounds`; the fraction of points inside the
     band is added to the legend.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from matplotlib.figure import Figure
+    >>> from trackcore.metrics import chi2_bounds
+    >>> from trackcore.plotting import plot_consistency
+    >>> ax = plot_consistency(Figure().add_subplot(), np.arange(4.0), [3.9, 4.2, 6.0, 4.1],
+    ...                       chi2_bounds(4, 50))
+    >>> ax.get_legend().get_texts()[0].get_text()
+    '3.25-4.82 acceptance band'
     """
     _check_ax(ax)
     t = _as_float_array(t, "t", ndim=1)
@@ -228,6 +282,15 @@ def paper_vs_ours_table(rows, headers=("quantity", "paper", "this book"), *, flo
     ``rows`` is a sequence of equal-length sequences; floats are formatted with
     ``floatfmt``, ``None`` becomes an em dash, other values use ``str``.  Print the
     result in a notebook cell, or wrap it in ``IPython.display.Markdown``.
+
+    Examples
+    --------
+    >>> from trackcore.plotting import paper_vs_ours_table
+    >>> print(paper_vs_ours_table([["RMSE [m]", 12.0, 12.345], ["track loss", None, 0.02]]))
+    | quantity   | paper | this book |
+    | ---------- | ----- | --------- |
+    | RMSE [m]   | 12    | 12.3      |
+    | track loss | —     | 0.02      |
     """
     headers = [str(h) for h in headers]
     if isinstance(rows, (str, bytes)) or not hasattr(rows, "__iter__"):
@@ -263,6 +326,15 @@ def results_table(rows, headers, *, floatfmt=".3g", align=None):
     strings (e.g. a formatted :class:`trackcore.stats.Estimate`), numbers or ``None``.
     ``align`` is an optional string of ``l``/``r``/``c``, one per column (default: left
     for the first column, right for the others).
+
+    Examples
+    --------
+    >>> from trackcore.plotting import results_table
+    >>> table = results_table([["IMM", "0.090 [0.077, 0.105]", 50]], ["filter", "RMSE [m]", "runs"])
+    >>> print(table.data)
+    | filter | RMSE [m]             | runs |
+    | :-- | --: | --: |
+    | IMM    | 0.090 [0.077, 0.105] | 50   |
     """
     from IPython.display import Markdown
 
@@ -279,7 +351,17 @@ def results_table(rows, headers, *, floatfmt=".3g", align=None):
 
 
 def integer_ticks(ax, axis="x"):
-    """Put ticks on whole numbers only (scan or frame axes). Returns ``ax``."""
+    """Put ticks on whole numbers only (scan or frame axes). Returns ``ax``.
+
+    Examples
+    --------
+    >>> from matplotlib.figure import Figure
+    >>> from trackcore.plotting import integer_ticks
+    >>> ax = Figure().add_subplot()
+    >>> _ = ax.plot([0.0, 3.0], [0.0, 1.0])
+    >>> integer_ticks(ax).get_xticks().tolist()
+    [-1.0, 0.0, 1.0, 2.0, 3.0, 4.0]
+    """
     from matplotlib.ticker import MaxNLocator
 
     _check_ax(ax)
