@@ -52,8 +52,9 @@ def missing_examples(module_name: str) -> list[str]:
         obj = getattr(module, name)
         if not callable(obj) or inspect.ismodule(obj):
             continue
-        if getattr(obj, "__module__", module_name) != module_name:
-            continue  # re-exported here; counted in the module that defines it
+        home = getattr(obj, "__module__", None) or module_name
+        if home != module_name and name in getattr(importlib.import_module(home), "__all__", ()):
+            continue  # re-exported here; counted in the module that defines and exports it
         if ">>>" not in (inspect.getdoc(obj) or ""):
             missing.append(name)
     return missing
