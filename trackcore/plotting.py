@@ -213,8 +213,8 @@ def plot_count_vs_scan(ax, scans, mean_counts, truth, *, ylabel="number of targe
     >>> import numpy as np
     >>> from matplotlib.figure import Figure
     >>> from trackcore.plotting import plot_count_vs_scan
-    >>> ax = plot_count_vs_scan(Figure().add_subplot(), np.arange(4), {"PHD": [0.9, 1.8, 2.1, 2.0]},
-    ...                         truth=[1, 2, 2, 2])
+    >>> ax = plot_count_vs_scan(Figure().add_subplot(), np.arange(4),
+    ...                         {"PHD": [0.9, 1.8, 2.1, 2.0]}, truth=[1, 2, 2, 2])
     >>> [line.get_label() for line in ax.get_lines()]
     ['truth', 'PHD']
     """
@@ -330,7 +330,8 @@ def results_table(rows, headers, *, floatfmt=".3g", align=None):
     Examples
     --------
     >>> from trackcore.plotting import results_table
-    >>> table = results_table([["IMM", "0.090 [0.077, 0.105]", 50]], ["filter", "RMSE [m]", "runs"])
+    >>> table = results_table([["IMM", "0.090 [0.077, 0.105]", 50]],
+    ...                       ["filter", "RMSE [m]", "runs"])
     >>> print(table.data)
     | filter | RMSE [m]             | runs |
     | :-- | --: | --: |

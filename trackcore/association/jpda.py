@@ -372,7 +372,7 @@ def feasible_events(valid):
     --------
     >>> from trackcore.association import feasible_events
     >>> valid = [[True, True], [False, True]]
-    >>> feasible_events(valid).tolist()      # per event, the measurement of each target (-1: missed)
+    >>> feasible_events(valid).tolist()   # per event, each target's measurement (-1: missed)
     [[-1, -1], [-1, 0], [-1, 1], [0, -1], [0, 1]]
     """
     valid = _check_valid(valid)

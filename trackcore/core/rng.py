@@ -54,7 +54,8 @@ def spawn_generators(seed, n):
 
 
 def generator_for_run(seed, i, n):
-    """The generator Monte Carlo run ``i`` of ``n`` gets (same as ``spawn_generators(seed, n)[i]``).
+    """The generator Monte Carlo run ``i`` of ``n`` gets (same as
+    ``spawn_generators(seed, n)[i]``).
 
     Examples
     --------

@@ -125,7 +125,8 @@ def amplitude_likelihood_ratio(a, snr, tau):
     --------
     >>> import numpy as np
     >>> from trackcore.detection import amplitude_likelihood_ratio
-    >>> print(np.round(amplitude_likelihood_ratio(np.array([2.0, 5.0, 10.0]), snr=9.0, tau=2.0), 3))
+    >>> lr = amplitude_likelihood_ratio(np.array([2.0, 5.0, 10.0]), snr=9.0, tau=2.0)
+    >>> print(np.round(lr, 3))
     [  0.1     1.488 133.943]
     >>> amplitude_likelihood_ratio(1.0, snr=9.0, tau=2.0)
     Traceback (most recent call last):

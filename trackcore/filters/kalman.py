@@ -94,8 +94,8 @@ class KalmanRun(NamedTuple):
     --------
     >>> import numpy as np
     >>> from trackcore.filters import kalman_filter_run
-    >>> run = kalman_filter_run(np.ones((3, 1)), np.zeros(1), np.eye(1), np.eye(1), 0.1 * np.eye(1),
-    ...                         np.eye(1), np.eye(1))
+    >>> I = np.eye(1)
+    >>> run = kalman_filter_run(np.ones((3, 1)), np.zeros(1), I, I, 0.1 * I, I, I)
     >>> run._fields
     ('xs', 'Ps', 'nis', 'loglik')
     >>> run.xs.shape, run.Ps.shape, run.nis.shape
