@@ -45,7 +45,7 @@ import numpy as np
 
 from ..core.validation import as_array, as_count, as_nonnegative, as_positive, as_probability
 
-__all__ = ["nn_existence_delta", "ipda_existence_delta"]
+__all__ = ["ipda_existence_delta", "nn_existence_delta"]
 
 
 @nb.njit(cache=True)

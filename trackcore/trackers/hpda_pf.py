@@ -541,8 +541,7 @@ def _ipda_weight_resample(X, modes, Zs, vidx, m, Rinv, logdetR, log_pd, log_clut
             r1 = wrap_angle_kernel(Zs[j, 1] - bb)
             u = log_pd + c0 - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
                                      + Rinv[1, 1] * r1 * r1)
-            if u > hi:
-                hi = u
+            hi = max(hi, u)
         acc = math.exp(log_clutter - hi)
         for q in range(m):
             j = vidx[q]
