@@ -799,6 +799,16 @@ def hpda_existence_delta():
 
 
 @example()
+def nn_existence_delta():
+    return call(2, 1.0, 0.05, 0.9, 0.99, 2.0)
+
+
+@example()
+def ipda_existence_delta():
+    return call(np.array([0.1, 0.05]), 0.9, 0.99, 2.0)
+
+
+@example()
 def simulate_hpda_ranks():
     return call(rng(), 200, 10.0, 2.0, 0.99, 1.5, 4)
 
@@ -1121,6 +1131,11 @@ def hpda_pf_run():
                      match="snr")
             .rejects("sigma_r=0", s.z, s.amplitude, s.offsets, _Replace(cfg, {"sigma_r": 0.0}),
                      rng(), match="sigma_r"))
+
+
+@example()
+def clutter_likelihood_ratios():
+    return call("ipda", 1.0, 3.0, 0.9, 0.99, 50, rng())
 
 
 @example()

@@ -39,11 +39,13 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
+from ..association.existence import ipda_existence_kernel, nn_existence_kernel
 from ..association.gating import gate_threshold
 from ..association.hpda import (hpda_conditional_rank_kernel, hpda_existence_delta_kernel,
                                 hpda_mixture_loglik_kernel)
+from ..association.pda import pda_update_kernel
 from ..filters.particle import systematic_indices_kernel
-from ..core.validation import as_array, as_offsets, as_rng
+from ..core.validation import as_array, as_offsets, as_rng, as_scalar
 from ..models.measurement import (range_bearing_jacobian_kernel, range_bearing_kernel,
                                   wrap_angle_kernel)
 
@@ -56,13 +58,20 @@ __all__ = [
     "SELECT_NEAREST",
     "SELECTION_DIAGNOSTICS",
     "check_scans",
+    "clutter_likelihood_ratios",
 ]
 
-#: selection rules: eq (15) (HPDA), strongest neighbour (s = 1), nearest neighbour
+#: selection rules: eq (15) (HPDA), strongest neighbour (s = 1), nearest neighbour (all
+#: three with eq (19)); the two valid distance-only filters of
+#: :mod:`trackcore.association.existence` (codes 3, 4): the nearest neighbour with its own
+#: likelihood, and IPDA over every gated return
 SELECT_HPDA = 0
 SELECT_STRONGEST = 1
 SELECT_NEAREST = 2
-_RULES = {"hpda": SELECT_HPDA, "strongest": SELECT_STRONGEST, "nearest": SELECT_NEAREST}
+_SELECT_NN_LIKELIHOOD = 3
+_SELECT_IPDA = 4
+_RULES = {"hpda": SELECT_HPDA, "strongest": SELECT_STRONGEST, "nearest": SELECT_NEAREST,
+          "nn-likelihood": _SELECT_NN_LIKELIHOOD, "ipda": _SELECT_IPDA}
 
 #: columns of :attr:`TrackerRun.diagnostics` (rows: confirmed, tentative tracks)
 SELECTION_DIAGNOSTICS = (
@@ -173,7 +182,11 @@ class HpdaPfConfig:
     CV, left, right), ``tentative_sigma_a = 0.01`` m/s^2 (the tentative EKF
     is a CV filter whose process noise covers the manoeuvre acceleration),
     ``max_confirmed``/``max_tentative`` capacities, ``selection`` rule
-    (``"hpda"``; ``"strongest"``/``"nearest"`` for the book's ablation),
+    (``"hpda"``; ``"strongest"``/``"nearest"`` for the book's ablation, both with
+    eq (19); ``"nn-likelihood"``: the nearest return with the nearest-neighbour
+    likelihood ratio as existence update and as the weight of ``z^s``; ``"ipda"``:
+    IPDA, every gated return in the existence update, the PDA update of the tentative
+    EKF and the particles' weights, ``z^s`` the return of the largest weight),
     ``duplicate_scans = 3`` (two confirmed tracks selecting the same
     measurement that many scans in a row: the less likely one is dropped; 0
     disables), and ``tentative_yield = True`` (a tentative track that selects
@@ -441,6 +454,21 @@ def _gate_and_select(Zs, As, border, bsorted, zhat, S, g2, pd, pg, c, lam_xy, ru
         if d2buf[l] < dmin:
             dmin = d2buf[l]
             s_nn = l
+    if rule == 3:
+        # the nearest neighbour with its own likelihood: pt, pf / V_G of the mixture
+        # weight P_D N(z; h(x), R) + lambda (1 - P_D (1 - exp(-d^2 / 2)))
+        delta, beta = nn_existence_kernel(d2buf[s_nn], ndens[s_nn], pd, lam_z)
+        miss = lam_z * (1.0 - pd * (1.0 - math.exp(-0.5 * d2buf[s_nn])))
+        return m, vidx[s_nn], beta, delta, pd, miss * VG, VG, s_nn, s_h, s_nn
+    if rule == 4:
+        # IPDA: every gated return; z^s is the one of the largest beta (the nearest)
+        sum_n = 0.0
+        for l in range(m):
+            sum_n += ndens[l]
+        delta = ipda_existence_kernel(sum_n, pd, pg, lam_z)
+        beta = pd * ndens[s_nn] / lam_z / (1.0 - delta)
+        return (m, vidx[s_nn], beta, delta, pd, lam_z * (1.0 - pdpg) * VG, VG, s_nn, s_h,
+                s_nn)
     if rule == 0:
         s = s_h
     elif rule == 1:
@@ -493,6 +521,73 @@ def _weight_resample(X, modes, z, Rinv, logdetR, log_pt, log_pf_vg, logw, scratc
         for a in range(4):
             X[i, a] = scratch[i, a]
         modes[i] = mscratch[i]
+
+
+@nb.njit(cache=True)
+def _ipda_weight_resample(X, modes, Zs, vidx, m, Rinv, logdetR, log_pd, log_clutter, logw,
+                          scratch, mscratch, idx, rng):
+    """IPDA's particle weights ``lambda (1 - P_D P_G) + P_D sum_j N(z_j; h(x_i), R)``
+    over the ``m`` gated returns ``Zs[vidx[:m]]`` (``log_clutter`` the log of the first
+    term), then systematic resampling in place (one ``rng.random()``)."""
+    N = X.shape[0]
+    c0 = -1.8378770664093453 - 0.5 * logdetR
+    for i in range(N):
+        rr = math.sqrt(X[i, 0] * X[i, 0] + X[i, 1] * X[i, 1])
+        bb = math.atan2(X[i, 1], X[i, 0])
+        hi = log_clutter
+        for q in range(m):
+            j = vidx[q]
+            r0 = Zs[j, 0] - rr
+            r1 = wrap_angle_kernel(Zs[j, 1] - bb)
+            u = log_pd + c0 - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
+                                     + Rinv[1, 1] * r1 * r1)
+            hi = max(hi, u)
+        acc = math.exp(log_clutter - hi)
+        for q in range(m):
+            j = vidx[q]
+            r0 = Zs[j, 0] - rr
+            r1 = wrap_angle_kernel(Zs[j, 1] - bb)
+            u = log_pd + c0 - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
+                                     + Rinv[1, 1] * r1 * r1)
+            acc += math.exp(u - hi)
+        logw[i] = hi + math.log(acc)
+    mx = -np.inf
+    for i in range(N):
+        if logw[i] > mx:
+            mx = logw[i]
+    for i in range(N):
+        logw[i] = math.exp(logw[i] - mx)
+    systematic_indices_kernel(logw, rng.random(), idx)
+    for i in range(N):
+        j = idx[i]
+        for a in range(4):
+            scratch[i, a] = X[j, a]
+        mscratch[i] = modes[j]
+    for i in range(N):
+        for a in range(4):
+            X[i, a] = scratch[i, a]
+        modes[i] = mscratch[i]
+
+
+@nb.njit(cache=True)
+def _ipda_ekf_update(x, P, Zs, vidx, m, zhat, H, R, pd, pdpg, lam_z, ndens, zg, bet,
+                     x_out, P_out):
+    """PDA update of a tentative track's EKF with every gated return (IPDA's weights
+    ``beta_j = P_D N_j / (lambda L)``, ``beta_0 = (1 - P_D P_G) / L``)."""
+    tot = 1.0 - pdpg
+    for q in range(m):
+        bet[q] = pd * ndens[q] / lam_z
+        tot += bet[q]
+        j = vidx[q]
+        zg[q, 0] = Zs[j, 0]
+        zg[q, 1] = Zs[j, 1]
+    for q in range(m):
+        bet[q] /= tot
+    nu = np.empty(2)
+    S = np.empty((2, 2))
+    K = np.empty((4, 2))
+    pda_update_kernel(x, P, zg[:m], zhat, H, R, bet[:m], (1.0 - pdpg) / tot, 1, x_out,
+                      P_out, nu, S, K)
 
 
 @nb.njit(cache=True)
@@ -659,6 +754,8 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, Q_t, R, rng,
     ndens = np.zeros(mmax)
     pt = np.zeros(mmax)
     pf = np.zeros(mmax)
+    zgbuf = np.zeros((mmax, 2))
+    betbuf = np.zeros(mmax)
     thint = 0   # lowest tentative slot that may be free
     for k in range(K):
         Zs = Z[off[k]:off[k + 1]]
@@ -690,8 +787,12 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, Q_t, R, rng,
             if m > 0:
                 lpt = math.log(pts) if pts > 0.0 else -np.inf
                 lpf = math.log(pfs / VG) if pfs > 0.0 else -np.inf
-                _weight_resample(X, cM[t], Zs[js], Rinv, logdetR, lpt, lpf, logw,
-                                 scratch, mscratch, ridx, rng)
+                if rule == 4:
+                    _ipda_weight_resample(X, cM[t], Zs, vidx, m, Rinv, logdetR, lpt, lpf,
+                                          logw, scratch, mscratch, ridx, rng)
+                else:
+                    _weight_resample(X, cM[t], Zs[js], Rinv, logdetR, lpt, lpf, logw,
+                                     scratch, mscratch, ridx, rng)
         # duplicates and termination
         for t in range(NC):
             if not cact[t]:
@@ -741,8 +842,12 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, Q_t, R, rng,
                     thint = min(thint, t)
                     continue
                 selected[js] = True
-                # single-measurement PDA update of the EKF with beta^s
-                _pda1_update(tx[t], tP[t], Zs[js], zhat, H, R, beta, xb, Pb, K_b, A_b)
+                if rule == 4:
+                    _ipda_ekf_update(tx[t], tP[t], Zs, vidx, m, zhat, H, R, pd, pd * pg,
+                                     lam_xy * zhat[0], ndens, zgbuf, betbuf, xb, Pb)
+                else:
+                    # single-measurement PDA update of the EKF with beta^s
+                    _pda1_update(tx[t], tP[t], Zs[js], zhat, H, R, beta, xb, Pb, K_b, A_b)
                 tx[t, :] = xb
                 tP[t, :, :] = Pb
             if tp[t] >= p_conf:
@@ -821,6 +926,76 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, Q_t, R, rng,
             if tact[t]:
                 nt += 1
         out_aux[k] = nt
+
+
+@nb.njit(cache=True)
+def _clutter_lr_kernel(rule, clutter_mean, pd, pg, g2, c, tau, n, rng, out):
+    r0, sr, sb = 1000.0, 1.0, 1e-3
+    S = np.array([[sr * sr, 0.0], [0.0, sb * sb]])
+    zhat = np.array([r0, 0.0])
+    VG = math.pi * g2 * sr * sb
+    lam_xy = clutter_mean / (VG * r0)
+    mcap = 16
+    while mcap < 8 * clutter_mean + 64:
+        mcap *= 2
+    Zs = np.zeros((mcap, 2))
+    As = np.zeros(mcap)
+    vidx = np.zeros(mcap, dtype=np.int64)
+    d2buf = np.zeros(mcap)
+    ndens = np.zeros(mcap)
+    pt = np.zeros(mcap)
+    pf = np.zeros(mcap)
+    for i in range(n):
+        m = min(rng.poisson(clutter_mean), mcap)
+        for j in range(m):
+            rad = math.sqrt(g2 * rng.random() * (1.0 - 1e-9))
+            phi = 2.0 * math.pi * rng.random()
+            Zs[j, 0] = r0 + sr * rad * math.cos(phi)
+            Zs[j, 1] = sb * rad * math.sin(phi)
+            As[j] = tau + rng.exponential(1.0)
+        border = np.argsort(Zs[:m, 1])
+        bsorted = np.empty(m)
+        for q in range(m):
+            bsorted[q] = Zs[border[q], 1]
+        res = _gate_and_select(Zs[:m], As[:m], border, bsorted, zhat, S, g2, pd, pg, c,
+                               lam_xy, rule, vidx, d2buf, ndens, pt, pf)
+        out[i] = 1.0 - res[3]
+
+
+def clutter_likelihood_ratios(selection, clutter_mean, snr, pd, gate_probability, n_draws,
+                              rng):
+    """The existence likelihood ratio ``1 - delta`` that HPDA-PF's rule ``selection``
+    (a key of the selection rules: ``"hpda"``, ``"strongest"``, ``"nearest"`` with
+    eq (19), ``"nn-likelihood"``, ``"ipda"``) computes in ``n_draws`` gates that hold
+    clutter only: Poisson(``clutter_mean`` = lambda V_G) returns, uniform in the gate of
+    probability ``gate_probability``, amplitudes ``tau + Exp(1)`` with
+    ``tau = -(1 + snr) ln pd``.  It calls the tracker's own gating and selection code.
+    A valid existence update has mean 1 here (its ratio is a likelihood ratio of the
+    data it uses); returns the ``(n_draws,)`` ratios."""
+    if not isinstance(selection, str) or selection not in _RULES:
+        raise ValueError(f"selection must be one of {tuple(_RULES)}, got {selection!r}")
+    lv = as_scalar(clutter_mean, "clutter_mean")
+    if not 0.0 < lv <= 1e3:
+        raise ValueError(f"clutter_mean must lie in (0, 1000], got {lv}")
+    rho = as_scalar(snr, "snr")
+    if rho < 0.0:
+        raise ValueError(f"snr must be >= 0, got {rho}")
+    pdv = as_scalar(pd, "pd")
+    if not 0.0 < pdv < 1.0:
+        raise ValueError(f"pd must lie in (0, 1), got {pdv}")
+    pg = as_scalar(gate_probability, "gate_probability")
+    if not 0.0 < pg < 1.0:
+        raise ValueError(f"gate_probability must lie in (0, 1), got {pg}")
+    if isinstance(n_draws, bool) or not isinstance(n_draws, (int, np.integer)):
+        raise TypeError(f"n_draws must be an integer, got {n_draws!r}")
+    if not 1 <= n_draws <= 10**8:
+        raise ValueError(f"n_draws must lie in [1, 1e8], got {n_draws}")
+    rng = as_rng(rng)
+    out = np.empty(int(n_draws))
+    _clutter_lr_kernel(_RULES[selection], lv, pdv, pg, gate_threshold(pg, 2),
+                       1.0 / (1.0 + rho), -(1.0 + rho) * math.log(pdv), int(n_draws), rng,
+                       out)
+    return out
 
 
 def hpda_pf_run(z, amplitude, offsets, config: HpdaPfConfig, rng) -> TrackerRun:
