@@ -84,6 +84,22 @@ def test_listed_modules_exist():
     assert not unknown, f"WITH_EXAMPLES lists modules that do not exist: {unknown}"
 
 
+def test_every_public_module_is_on_an_api_page():
+    """A module with a public ``__all__`` (not a package, not private) has an automodule."""
+    from pathlib import Path
+
+    pages = Path(__file__).resolve().parents[1] / "book" / "appendix" / "api"
+    text = "\n".join(p.read_text() for p in sorted(pages.glob("*.md")))
+    missing = [
+        m for m in all_modules()
+        if not any(part.startswith("_") for part in m.split("."))
+        and not hasattr(importlib.import_module(m), "__path__")
+        and getattr(importlib.import_module(m), "__all__", None)
+        and f".. automodule:: {m}\n" not in text
+    ]
+    assert not missing, f"public modules missing from book/appendix/api/*.md: {missing}"
+
+
 if __name__ == "__main__":  # counts of what is left: python tests/test_doctests.py
     total = 0
     for name in all_modules():
