@@ -372,3 +372,4 @@ from . import (
     fjpda_readings,  # noqa: E402,F401  (004: the readings at 200 seeds, issue 29)
 )
 from . import tom_pg1  # noqa: E402,F401  (001-03: tom-imm-houles-pg1, no gate)
+from . import fjpda_templates  # noqa: E402,F401  (004: template cells, HOTA, occlusion map)
