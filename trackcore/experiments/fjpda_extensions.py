@@ -144,12 +144,13 @@ for _sep, _runs, _trackers, _what in (
             _sep, _trackers, feature_lr=FJPDA_EXT_LR if "FJPDA-LR" in _trackers else ()),
         seed=FJPDA_EXT_SEED + int(_sep), runs=_runs, version="1", notebook=_NB))
 
-#: the paper's complete tracker at 3 px: both trackers with the duplicate rule, on the
-#: 800 crossings of fjpda-ext-3px (same seed: JPDA's outcomes equal the stored ones)
+#: the paper's complete tracker at 3 px: FJPDA with the duplicate rule on the first 400
+#: crossings of fjpda-ext-3px (same seed and runs: paired run by run with the stored
+#: outcomes of JPDA with the rule)
 register(Experiment(
     name="fjpda-ext-3px-dup",
-    description="Feature-JPDA chapter, extensions: crossing outcomes of JPDA and FJPDA, "
-                "both with the duplicate rule, closest approach 3 px",
+    description="Feature-JPDA chapter, extensions: crossing outcomes of FJPDA with the "
+                "duplicate rule, closest approach 3 px (the crossings of fjpda-ext-3px)",
     trial=crossing_trial, call=_call, extract=_extract,
-    config=FjpdaCrossingConfig(3.0, ("JPDA, duplicate rule", "FJPDA, duplicate rule")),
-    seed=FJPDA_EXT_SEED + 3, runs=800, version="1", notebook=_NB))
+    config=FjpdaCrossingConfig(3.0, ("FJPDA, duplicate rule",)),
+    seed=FJPDA_EXT_SEED + 3, runs=400, version="1", notebook=_NB))
