@@ -3,7 +3,7 @@ occlusion map (issue 29).
 
 ``fjpda-templates-<key>``, one experiment per ambiguity scene of
 :data:`~trackcore.experiments.fjpda_readings.READINGS_SCENES`, with the SAME master
-seed and run count (200) as ``fjpda-readings-<key>``: run i renders and segments the
+seed as ``fjpda-readings-<key>`` and its first 100 runs: run i renders and segments the
 same scene as the readings store's run i (the generator of run i depends only on the
 seed and i), so its rows pair run by run with the readings rows.  On those detections
 it runs JPDA, FJPDA at the defaults and FJPDA with the sliding correlation and a fixed
@@ -185,12 +185,12 @@ _NB = "book/004-feature-jpda/07-extensions.ipynb"
 for _i, (_key, (_scene, _jitter, _)) in enumerate(READINGS_SCENES.items()):
     register(Experiment(
         name=f"fjpda-templates-{_key}",
-        description=(f"Feature-JPDA chapter, template cells and HOTA at 200 seeds, {_key} "
+        description=(f"Feature-JPDA chapter, template cells and HOTA at 100 seeds, {_key} "
                      f"(the runs of fjpda-readings-{_key}): "
                      f"{', '.join(TEMPLATE_VARIANTS)}"),
         trial=templates_trial, call=_templates_call, extract=_templates_extract,
         config=FjpdaTemplatesConfig(_scene, _jitter),
-        seed=FJPDA_READINGS_SEED + _i, runs=200, version="1", notebook=_NB))
+        seed=FJPDA_READINGS_SEED + _i, runs=100, version="1", notebook=_NB))
 
 FJPDA_MAP_SEED = FJPDA_READINGS_SEED + 20
 register(Experiment(
