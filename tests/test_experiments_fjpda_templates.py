@@ -116,3 +116,19 @@ def test_template_rows_are_the_readings_runs():
         assert status(f"fjpda-templates-{key}") == want, key
     row = e.row(generator_for_run(e.seed, 7, e.runs), e.config)
     assert row == pytest.approx(t.row(7)), "run 7 re-simulated"
+
+
+def test_dup_crossings_are_the_3px_crossings():
+    """fjpda-ext-3px-dup runs FJPDA with the duplicate rule on the first 400 crossings of
+    fjpda-ext-3px (same seed); a direct run of one crossing reproduces its stored row."""
+    from trackcore.experiments.fjpda_extensions import FjpdaCrossingConfig
+
+    e, s = get("fjpda-ext-3px-dup"), get("fjpda-ext-3px")
+    assert (e.seed, e.runs, s.runs) == (s.seed, 400, 800), (e.seed, e.runs)
+    assert e.config.trackers == ("FJPDA, duplicate rule",), e.config
+    assert e.config.variants()["FJPDA, duplicate rule"].duplicate_deletion, "rule on"
+    with pytest.raises(ValueError, match="unknown tracker"):
+        FjpdaCrossingConfig(3.0, ("FJPDA, no such rule",))
+    if status(e.name) == "current":
+        row = e.row(generator_for_run(e.seed, 5, e.runs), e.config)
+        assert row == load(e.name).row(5), "run 5 re-simulated"
