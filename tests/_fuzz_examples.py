@@ -1777,6 +1777,11 @@ def clear_mot_metrics():
 
 
 @example()
+def hota_metrics():
+    return call(scene(), _reports(), 10.0)
+
+
+@example()
 def vehicle_mask_iou():
     from trackcore.scenarios.feature_scenes import N_WARMUP
     sc = scene()

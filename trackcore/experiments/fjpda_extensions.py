@@ -26,6 +26,9 @@ __all__ = ["CROSSING_OUTCOMES", "CROSSING_TRACKERS", "FjpdaCrossingConfig"]
 CROSSING_OUTCOMES = ("kept", "swap", "break", "")
 #: The tracker labels a config may name (the notebook's labels).
 CROSSING_TRACKERS = ("JPDA", "FJPDA", "FJPDA-LR", "JPDA, duplicate rule")
+#: Every label a config may name: those, and FJPDA with the duplicate rule (the paper's
+#: complete tracker, ``fjpda-ext-3px-dup``).
+_TRACKERS = (*CROSSING_TRACKERS, "FJPDA, duplicate rule")
 
 
 _finite = check_finite
@@ -72,7 +75,7 @@ class FjpdaCrossingConfig(_Config):
             raise ValueError(f"n_frames must be in [3, 10000], got {self.n_frames}")
         if not 0 <= self.conflict < self.n_frames:
             raise ValueError(f"conflict must be in [0, n_frames), got {self.conflict}")
-        check_names(self.trackers, "trackers", CROSSING_TRACKERS, "tracker")
+        check_names(self.trackers, "trackers", _TRACKERS, "tracker")
         if not isinstance(self.feature_lr, tuple):
             raise TypeError(f"feature_lr must be a tuple, got {self.feature_lr!r}")
         if "FJPDA-LR" in self.trackers and len(self.feature_lr) != 4:
@@ -97,6 +100,8 @@ class FjpdaCrossingConfig(_Config):
                                                   duplicate_deletion=False),
             "JPDA, duplicate rule": lambda: JPDATrackerConfig(variant="JPDA",
                                                               lam=self.lam),
+            "FJPDA, duplicate rule": lambda: JPDATrackerConfig(variant="FJPDA",
+                                                               lam=self.lam),
         }
         return {t: make[t]() for t in self.trackers}
 
@@ -138,3 +143,14 @@ for _sep, _runs, _trackers, _what in (
         config=FjpdaCrossingConfig(
             _sep, _trackers, feature_lr=FJPDA_EXT_LR if "FJPDA-LR" in _trackers else ()),
         seed=FJPDA_EXT_SEED + int(_sep), runs=_runs, version="1", notebook=_NB))
+
+#: the paper's complete tracker at 3 px: FJPDA with the duplicate rule on the first 400
+#: crossings of fjpda-ext-3px (same seed and runs: paired run by run with the stored
+#: outcomes of JPDA with the rule)
+register(Experiment(
+    name="fjpda-ext-3px-dup",
+    description="Feature-JPDA chapter, extensions: crossing outcomes of FJPDA with the "
+                "duplicate rule, closest approach 3 px (the crossings of fjpda-ext-3px)",
+    trial=crossing_trial, call=_call, extract=_extract,
+    config=FjpdaCrossingConfig(3.0, ("FJPDA, duplicate rule",)),
+    seed=FJPDA_EXT_SEED + 3, runs=400, version="1", notebook=_NB))

@@ -45,7 +45,7 @@ from ..stats import Estimate, mcnemar_exact, paired_diff_ci
 from .feature_scenes import check_scene
 
 __all__ = ["SceneMetrics", "match_tracks", "scene_metrics", "vehicle_mask_iou",
-           "MOT_METRICS", "clear_mot_metrics",
+           "MOT_METRICS", "clear_mot_metrics", "HOTA_METRICS", "hota_metrics",
            "SceneTrial", "scene_trial", "scene_trials", "scene_run",
            "PairedComparison", "paired_comparison", "crossing_trial"]
 
@@ -303,6 +303,58 @@ def clear_mot_metrics(scene, reports, match_gate=10.0):
     mh = mm.metrics.create()
     out = mh.compute(acc, metrics=list(MOT_METRICS), name="run").iloc[0]
     return {name: float(out[name]) for name in MOT_METRICS}
+
+
+#: The measures of :func:`hota_metrics` (TrackEval's names; each the mean over its
+#: 19 localisation thresholds alpha = 0.05, 0.10, ..., 0.95, as TrackEval reports them).
+HOTA_METRICS = ("HOTA", "DetA", "AssA")
+
+
+def hota_metrics(scene, reports, match_gate=10.0):
+    """HOTA, DetA and AssA of one tracker run over one scene, computed by
+    TrackEval's HOTA (the ``trackeval`` package): the vehicles present in a frame are
+    the ground truth, the confirmed and memory tracks the tracker's detections, and
+    the similarity of a vehicle and a track is ``max(0, 1 - d / match_gate)`` for
+    their centroid distance ``d`` px (1 on the vehicle, 0 at and beyond the gate),
+    so HOTA's threshold alpha asks for ``d <= (1 - alpha) match_gate``.  Returns
+    ``{name: value}`` for :data:`HOTA_METRICS`, each the mean over alpha."""
+    check_scene(scene)
+    veh = np.nonzero(scene.is_vehicle)[0]
+    K = scene.xy.shape[0]
+    match_tracks(scene.xy[:, veh], scene.present[:, veh], reports, match_gate)
+    match_gate = float(match_gate)
+    frames = []
+    for k in range(K):
+        objs = [int(o) for o in veh if scene.present[k, o]]
+        tr = [s for s in reports[k].tracks if s.status in _REPORTED]
+        sim = np.zeros((len(objs), len(tr)))
+        if objs and tr:
+            P = np.array([[s.x, s.y] for s in tr])
+            X = scene.xy[k, objs]
+            D = np.hypot(X[:, None, 0] - P[None, :, 0], X[:, None, 1] - P[None, :, 1])
+            sim = np.maximum(0.0, 1.0 - D / match_gate)
+        frames.append((objs, [s.tid for s in tr], sim))
+    return _trackeval_hota(frames)
+
+
+def _trackeval_hota(frames):
+    """TrackEval's HOTA of one sequence given per frame ``(gt ids, tracker ids,
+    similarity (n_gt, n_tracker))``: the ids are relabelled 0..n-1 as TrackEval
+    expects; returns the means over alpha of :data:`HOTA_METRICS`."""
+    from trackeval.metrics import HOTA
+
+    gt_map, tr_map = {}, {}
+    gt_ids, tr_ids, sims = [], [], []
+    for g, t, s in frames:
+        gt_ids.append(np.array([gt_map.setdefault(i, len(gt_map)) for i in g], int))
+        tr_ids.append(np.array([tr_map.setdefault(i, len(tr_map)) for i in t], int))
+        sims.append(np.asarray(s, float).reshape(len(g), len(t)))
+    data = {"num_gt_ids": len(gt_map), "num_tracker_ids": len(tr_map),
+            "num_gt_dets": sum(map(len, gt_ids)),
+            "num_tracker_dets": sum(map(len, tr_ids)),
+            "gt_ids": gt_ids, "tracker_ids": tr_ids, "similarity_scores": sims}
+    res = HOTA().eval_sequence(data)
+    return {name: float(np.mean(res[name])) for name in HOTA_METRICS}
 
 
 def vehicle_mask_iou(scene, masks, margin=3):

@@ -160,14 +160,17 @@ def _crossing(c, conflict=_CONFLICT):
     return up, right
 
 
-def scene_layout(name):
+def scene_layout(name, crossing_offset=None):
     """The objects of scene ``name``: a list of dicts with ``name``, ``role``
     (``"vehicle"``/``"bar"``/``"foliage"``/``"glare"``) and ``pos(k) -> (x, y)
     or None`` (None = absent at scene frame k), plus the sprite or clutter
     parameters.  Returns ``(objects, n_frames, conflict_frame, pair,
-    score_window, allow_merge)``."""
+    score_window, allow_merge)``.  ``crossing_offset`` (occlusion scene only; default
+    6) is the offset c of its crossing: the centroids come within sqrt(13) c px,
+    so a smaller c merges the pair's blobs for more frames."""
     if name not in SCENES:
         raise ValueError(f"name must be one of {SCENES}, got {name!r}")
+    occl_c = _check_offset(name, crossing_offset)
     K = _FRAMES[name]
     objs = []
 
@@ -200,7 +203,7 @@ def scene_layout(name):
     elif name == "occlusion":
         conflict, pair, allow_merge = 35, (0, 1), True
         window = (conflict - 10, conflict + 10)
-        up, right = _crossing(_OCCL_C, conflict)
+        up, right = _crossing(occl_c, conflict)
         veh("sedan", "sedan", math.pi / 2, up)
         veh("van", "van", 0.0, right)
     elif name == "S2b":
@@ -270,12 +273,23 @@ def _full_centroid(M, x, y):
     return c0 + cc.mean(), r0 + rr.mean()
 
 
-def render_scene(name, rng, jitter=None):
+def _check_offset(name, crossing_offset):
+    if crossing_offset is None:
+        return _OCCL_C
+    if name != "occlusion":
+        raise ValueError(f"crossing_offset applies to the occlusion scene only, not {name!r}")
+    c = as_nonnegative(crossing_offset, "crossing_offset")
+    if c > 30.0:
+        raise ValueError(f"crossing_offset must be at most 30 px, got {c}")
+    return c
+
+
+def render_scene(name, rng, jitter=None, crossing_offset=None):
     """Render scene ``name`` with generator ``rng`` (texture, noise, flicker,
     camera jitter).  ``jitter`` is the camera jitter sigma in px (default:
-    ``DEFAULT_JITTER[name]``)."""
+    ``DEFAULT_JITTER[name]``); ``crossing_offset`` as in :func:`scene_layout`."""
     rng = as_rng(rng)
-    objs, K, conflict, pair, window, allow_merge = scene_layout(name)
+    objs, K, conflict, pair, window, allow_merge = scene_layout(name, crossing_offset)
     sigma = DEFAULT_JITTER[name] if jitter is None else as_nonnegative(jitter, "jitter")
     if sigma > 20.0:
         raise ValueError(f"jitter must be at most 20 px, got {sigma}")
