@@ -16,7 +16,7 @@ from trackcore.scenarios import (  # noqa: E402
     rmse_ratio_mse,
 )
 from trackcore.scenarios._tom_book03 import (  # noqa: E402
-    BASELINE_200,
+    BASELINE,
     _baseline_cells,
     _errorbar,
     _pooled_cis,
@@ -72,18 +72,18 @@ def test_baseline_cells():
     mx = rng.gamma(2.0, 2e4, size=(50, 3))
     last = mx * rng.random((50, 3))
     cells = failure_grid(mx, last, rng.random((50, 3)) < 0.05)
-    d200 = FAILURE_DEFINITIONS[0]
-    out = _baseline_cells(mse, cells, (20.0, 25.0), d200)
-    assert len(out) == 2 * len(cells) + len(BASELINE_200), f"{len(out)} cells"
-    f = cells[d200].failed
-    e = rmse_estimate_mse(mse, f, 0, window="manoeuvring")
-    got = out[d200, "singer_man"]
-    assert np.isclose(got.value * 25.0, e.value, rtol=1e-14, atol=0), "scaled by 25"
-    assert _same(out[d200, "car_ratio_man"], rmse_ratio_mse(mse, f, 1, 0,
-                                                            window="manoeuvring")), (
-        "CAR / Singer in the turns differs from rmse_ratio_mse")
-    with pytest.raises(ValueError, match="d200"):
-        _baseline_cells(mse, cells, (20.0, 25.0), "error > 250 m")
+    out = _baseline_cells(mse, cells, (20.0, 25.0))
+    assert len(out) == len(cells) * len(BASELINE), f"{len(out)} cells"
+    for d in (FAILURE_DEFINITIONS[0], FAILURE_DEFINITIONS[4]):
+        f = cells[d].failed
+        e = rmse_estimate_mse(mse, f, 0, window="manoeuvring")
+        got = out[d, "singer_man"]
+        assert np.isclose(got.value * 25.0, e.value, rtol=1e-14, atol=0), "scaled by 25"
+        want = rmse_ratio_mse(mse, f, 1, 0, window="manoeuvring")
+        assert _same(out[d, "car_ratio_man"], want), f"CAR / Singer in the turns, {d}"
+        assert _same(out[d, "car_total"], rmse_estimate_mse(mse, f, 1)), f"CAR, {d}"
+    with pytest.raises(ValueError, match="cells"):
+        _baseline_cells(mse, {}, (20.0, 25.0))
 
 
 def test_errorbar_and_rows():

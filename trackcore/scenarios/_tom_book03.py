@@ -16,15 +16,16 @@ from .. import stats
 from .houles import _filter_index, _mse_failed, _window_index
 
 
-def _pooled(p, ok):
-    """Pooled RMSE over the last axis: sqrt(sum(p) / sum(ok)) as the book's statistic
-    computes it (NaN for a resample without a surviving run)."""
+def _pooled(p, oks):
+    """Pooled RMSE over the last axis: sqrt(sum(p) / oks), ``oks`` the summed survival
+    flags, as the book's statistic computes it (NaN for a resample without a survivor)."""
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.sqrt(np.sum(p, axis=-1) / np.sum(ok, axis=-1))
+        return np.sqrt(np.sum(p, axis=-1) / oks)
 
 
-def _columns(mse, failed, spec):
-    """Per run (m * ok, ok) of each filter of ``spec`` = (num, den or None, window)."""
+def _columns(mse, failed, spec, oks):
+    """Per filter of ``spec`` = (num, den or None, window): (m * ok per run, the key of
+    its ok column in ``oks``, filled here: one column per failure array and filter)."""
     num, den, window = spec
     w = _window_index(window)
     cols = []
@@ -36,13 +37,16 @@ def _columns(mse, failed, spec):
         if ok.sum() < 2:
             raise ValueError(f"filter {f} survives fewer than 2 runs; no RMSE interval")
         okf = ok.astype(float)
-        cols.append((np.where(ok, mse[:, f, w], 0.0) * okf, okf))
+        key = (id(failed), f)
+        oks.setdefault(key, okf)
+        cols.append((np.where(ok, mse[:, f, w], 0.0) * okf, key))
     return cols
 
 
-def _stat(cols, idx):
-    """The statistic of one spec on the resamples ``idx`` (b, n) of the runs."""
-    r = [_pooled(p[idx], ok[idx]) for p, ok in cols]
+def _stat(cols, idx, sums):
+    """The statistic of one spec on the resamples ``idx`` (b, n) of the runs, ``sums``
+    the ok columns summed over the same resamples."""
+    r = [_pooled(p[idx], sums[key]) for p, key in cols]
     return r[0] if len(r) == 1 else r[0] / r[1]
 
 
@@ -58,27 +62,31 @@ def _pooled_cis(mse, failed, specs, *, seed=0):
     """
     if not isinstance(specs, (list, tuple)) or not specs:
         raise TypeError(f"specs must be a non-empty list of (num, den, window), got {specs!r}")
-    cols = []
+    cols, oks, checked = [], {}, []
     for s in specs:
         if not isinstance(s, tuple) or len(s) not in (3, 4):
             raise TypeError(f"each spec must be (num, den, window[, failed]), got {s!r}")
         m, fl = _mse_failed(mse, s[3] if len(s) == 4 else failed)
-        cols.append(_columns(m, fl, s[:3]))
+        checked.append(fl)  # keeps every failure array alive: its id keys its ok columns
+        cols.append(_columns(m, fl, s[:3], oks))
     n = m.shape[0]
-    theta = [float(_stat(c, np.arange(n)[None])[0]) for c in cols]
+
+    def stats_on(idx):
+        sums = {key: np.sum(ok[idx], axis=-1) for key, ok in oks.items()}
+        return [_stat(c, idx, sums) for c in cols]
+
+    theta = [float(v[0]) for v in stats_on(np.arange(n)[None])]
     rng = np.random.default_rng(seed)
     boot = np.empty((len(specs), stats.N_BOOT))
     done = 0
     while done < stats.N_BOOT:
         b = min(stats._CHUNK // 4, stats.N_BOOT - done)
-        idx = rng.integers(0, n, size=(b, n))
-        for k, c in enumerate(cols):
-            boot[k, done:done + b] = _stat(c, idx)
+        boot[:, done:done + b] = stats_on(rng.integers(0, n, size=(b, n)))
         done += b
     j = np.arange(n - 1)
-    loo = j[None, :] + (j[None, :] >= np.arange(n)[:, None])  # run i left out of row i
-    return [stats._bca(theta[k], boot[k], _stat(c, loo), stats.LEVEL, n, "BCa bootstrap")
-            for k, c in enumerate(cols)]
+    jack = stats_on(j[None, :] + (j[None, :] >= np.arange(n)[:, None]))  # row i: run i out
+    return [stats._bca(theta[k], boot[k], jack[k], stats.LEVEL, n, "BCa bootstrap")
+            for k in range(len(specs))]
 
 
 def _errorbar(ax, x, ests, scale=1.0, **kw):
@@ -108,30 +116,28 @@ def _rmse_rows(table, paper, names, paper_ratio_tom, windows):
     return rows
 
 
-#: Singer's and CAR's Table 1 cells: (key, num, den, window), their failure runs the
-#: default definition's; Singer's total and manoeuvring cells under every definition.
-BASELINE_200 = (("singer_non", 0, None, "non-manoeuvring"), ("car_total", 1, None, "total"),
-                ("car_man", 1, None, "manoeuvring"), ("car_ratio_total", 1, 0, "total"),
-                ("car_ratio_man", 1, 0, "manoeuvring"))
+#: Singer's and CAR's Table 1 cells: (key, num, den, window); Singer's total and
+#: manoeuvring RMSE are read as a fraction of the paper's column.
+BASELINE = (("singer_total", 0, None, "total"), ("singer_man", 0, None, "manoeuvring"),
+            ("singer_non", 0, None, "non-manoeuvring"), ("car_total", 1, None, "total"),
+            ("car_man", 1, None, "manoeuvring"), ("car_ratio_total", 1, 0, "total"),
+            ("car_ratio_man", 1, 0, "manoeuvring"))
 
 
-def _baseline_cells(mse, cells, paper_singer, d200):
-    """Singer's and CAR's Table 1 cells at one gate, every interval on one set of
-    resamples.  ``cells`` maps each failure definition to its :class:`FailureCell`
-    (``.failed`` (runs, filters), Singer 0 and CAR 1) and ``d200`` names the default one;
-    returns ``{(definition, key): Estimate}``: ``singer_total`` and ``singer_man`` as a
-    fraction of ``paper_singer`` (total, manoeuvring) under every definition, the
-    :data:`BASELINE_200` keys under ``d200`` (RMSE in m, ratios as fractions)."""
-    if d200 not in cells:
-        raise ValueError(f"d200 must be one of the definitions, got {d200!r}")
+def _baseline_cells(mse, cells, paper_singer):
+    """Singer's and CAR's Table 1 cells at one gate under every failure definition, every
+    interval on one set of resamples.  ``cells`` maps each definition to its
+    :class:`FailureCell` (``.failed`` (runs, filters), Singer 0 and CAR 1); returns
+    ``{(definition, key): Estimate}`` for the :data:`BASELINE` keys: RMSE in m, ratios
+    as fractions, ``singer_total`` and ``singer_man`` as a fraction of ``paper_singer``
+    (the paper's total and manoeuvring Singer RMSE)."""
+    if not cells:
+        raise ValueError("cells must hold at least one failure definition")
     keys, specs = [], []
     for d, c in cells.items():
-        for key, w in (("singer_total", "total"), ("singer_man", "manoeuvring")):
+        for key, num, den, w in BASELINE:
             keys.append((d, key))
-            specs.append((0, None, w, c.failed))
-    for key, num, den, w in BASELINE_200:
-        keys.append((d200, key))
-        specs.append((num, den, w, cells[d200].failed))
+            specs.append((num, den, w, c.failed))
     out = dict(zip(keys, _pooled_cis(mse, None, specs)))
     for d in cells:
         for key, c in (("singer_total", paper_singer[0]), ("singer_man", paper_singer[1])):
