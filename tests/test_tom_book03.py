@@ -4,25 +4,25 @@ import matplotlib
 
 matplotlib.use("Agg")
 
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
 
-from trackcore.scenarios import (  # noqa: E402
+from trackcore.scenarios import (
     FAILURE_DEFINITIONS,
     failure_grid,
     houles_table,
     rmse_estimate_mse,
     rmse_ratio_mse,
 )
-from trackcore.scenarios._tom_book03 import (  # noqa: E402
+from trackcore.scenarios._tom_book03 import (
     BASELINE,
     _baseline_cells,
     _errorbar,
     _pooled_cis,
     _rmse_rows,
 )
-from trackcore.stats import Estimate  # noqa: E402
+from trackcore.stats import Estimate
 
 
 def _data(n=60, nf=3, seed=1):
@@ -39,23 +39,23 @@ def _same(a, b):
 def test_pooled_cis_equals_the_book_functions_bit_for_bit():
     mse, failed = _data()
     other = np.roll(failed, 3, axis=0)
-    specs = [(0, None, "total"), (2, None, "manoeuvring"), (2, 0, "total"),
+    queries = [(0, None, "total"), (2, None, "manoeuvring"), (2, 0, "total"),
              (1, 0, "non-manoeuvring"), (0, None, "total", other)]
-    got = _pooled_cis(mse, failed, specs)
+    got = _pooled_cis(mse, failed, queries)
     want = [rmse_estimate_mse(mse, failed, 0), rmse_estimate_mse(mse, failed, 2,
                                                                  window="manoeuvring"),
             rmse_ratio_mse(mse, failed, 2, 0),
             rmse_ratio_mse(mse, failed, 1, 0, window="non-manoeuvring"),
             rmse_estimate_mse(mse, other, 0)]
-    for g, w, s in zip(got, want, specs):
-        assert _same(g, w), f"spec {s[:3]}: {g!r} != {w!r}"
+    for g, w, s in zip(got, want, queries):
+        assert _same(g, w), f"query {s[:3]}: {g!r} != {w!r}"
 
 
 def test_pooled_cis_bad_input():
     mse, failed = _data()
-    with pytest.raises(TypeError, match="specs"):
+    with pytest.raises(TypeError, match="queries"):
         _pooled_cis(mse, failed, [])
-    with pytest.raises(TypeError, match="spec"):
+    with pytest.raises(TypeError, match="query"):
         _pooled_cis(mse, failed, [(0, None)])
     with pytest.raises(ValueError, match="window"):
         _pooled_cis(mse, failed, [(0, None, "turns")])
@@ -90,7 +90,7 @@ def test_errorbar_and_rows():
     fig, ax = plt.subplots()
     ests = [Estimate(1.0, 0.5, 2.0), Estimate(2.0, 1.5, 3.0)]
     art = _errorbar(ax, [0, 1], ests, scale=100.0, fmt="o")
-    x, y = art.lines[0].get_data()
+    _, y = art.lines[0].get_data()
     assert list(y) == [100.0, 200.0], f"points at {list(y)}"
     plt.close(fig)
     rng = np.random.default_rng(3)

@@ -23,10 +23,10 @@ def _pooled(p, oks):
         return np.sqrt(np.sum(p, axis=-1) / oks)
 
 
-def _columns(mse, failed, spec, oks):
-    """Per filter of ``spec`` = (num, den or None, window): (m * ok per run, the key of
+def _columns(mse, failed, query, oks):
+    """Per filter of ``query`` = (num, den or None, window): (m * ok per run, the key of
     its ok column in ``oks``, filled here: one column per failure array and filter)."""
-    num, den, window = spec
+    num, den, window = query
     w = _window_index(window)
     cols = []
     for name, f in (("num", num), ("den", den)):
@@ -44,28 +44,28 @@ def _columns(mse, failed, spec, oks):
 
 
 def _stat(cols, idx, sums):
-    """The statistic of one spec on the resamples ``idx`` (b, n) of the runs, ``sums``
+    """The statistic of one query on the resamples ``idx`` (b, n) of the runs, ``sums``
     the ok columns summed over the same resamples."""
     r = [_pooled(p[idx], sums[key]) for p, key in cols]
     return r[0] if len(r) == 1 else r[0] / r[1]
 
 
-def _pooled_cis(mse, failed, specs, *, seed=0):
+def _pooled_cis(mse, failed, queries, *, seed=0):
     """Intervals of several pooled RMSEs and RMSE ratios on the same runs.
 
     ``mse`` (runs, filters, 3) per-run window mean squares, ``failed`` (runs, filters)
-    bool; ``specs`` a list of ``(num, den, window)`` or ``(num, den, window, failed)``
-    (a failure array of its own for that spec): ``den`` None for filter ``num``'s
+    bool; ``queries`` a list of ``(num, den, window)`` or ``(num, den, window, failed)``
+    (a failure array of its own for that query): ``den`` None for filter ``num``'s
     pooled RMSE (m) over the runs it did not fail (:func:`rmse_estimate_mse`), else the
     ratio of ``num``'s to ``den``'s, each over its own unfailed runs (:func:`rmse_ratio_mse`).
-    Returns one :class:`~trackcore.stats.Estimate` per spec, equal to those functions'.
+    Returns one :class:`~trackcore.stats.Estimate` per query, equal to those functions'.
     """
-    if not isinstance(specs, (list, tuple)) or not specs:
-        raise TypeError(f"specs must be a non-empty list of (num, den, window), got {specs!r}")
+    if not isinstance(queries, (list, tuple)) or not queries:
+        raise TypeError(f"queries must be a non-empty list of (num, den, window), got {queries!r}")
     cols, oks, checked = [], {}, []
-    for s in specs:
+    for s in queries:
         if not isinstance(s, tuple) or len(s) not in (3, 4):
-            raise TypeError(f"each spec must be (num, den, window[, failed]), got {s!r}")
+            raise TypeError(f"each query must be (num, den, window[, failed]), got {s!r}")
         m, fl = _mse_failed(mse, s[3] if len(s) == 4 else failed)
         checked.append(fl)  # keeps every failure array alive: its id keys its ok columns
         cols.append(_columns(m, fl, s[:3], oks))
@@ -77,7 +77,7 @@ def _pooled_cis(mse, failed, specs, *, seed=0):
 
     theta = [float(v[0]) for v in stats_on(np.arange(n)[None])]
     rng = np.random.default_rng(seed)
-    boot = np.empty((len(specs), stats.N_BOOT))
+    boot = np.empty((len(queries), stats.N_BOOT))
     done = 0
     while done < stats.N_BOOT:
         b = min(stats._CHUNK // 4, stats.N_BOOT - done)
@@ -86,7 +86,7 @@ def _pooled_cis(mse, failed, specs, *, seed=0):
     j = np.arange(n - 1)
     jack = stats_on(j[None, :] + (j[None, :] >= np.arange(n)[:, None]))  # row i: run i out
     return [stats._bca(theta[k], boot[k], jack[k], stats.LEVEL, n, "BCa bootstrap")
-            for k in range(len(specs))]
+            for k in range(len(queries))]
 
 
 def _errorbar(ax, x, ests, scale=1.0, **kw):
@@ -101,9 +101,10 @@ def _rmse_rows(table, paper, names, paper_ratio_tom, windows):
     (``table`` a :class:`~trackcore.scenarios.houles.HoulesTable`)."""
     rows = []
     for w, win in enumerate(windows):
-        rows.append([f"RMSE {win} (m)"] + sum(
-            ([f"{paper[n][w]:.2f}" if n in paper else "(lost)", f"{table.rmse[f][w]:.2f}"]
-             for f, n in enumerate(names)), []))
+        row = [f"RMSE {win} (m)"]
+        for f, n in enumerate(names):
+            row += [f"{paper[n][w]:.2f}" if n in paper else "(lost)", f"{table.rmse[f][w]:.2f}"]
+        rows.append(row)
     for w, win in enumerate(windows):
         rows.append([f"ratio {win}", "100 %", "100 %",
                      f"{100 * paper['CAR'][w] / paper['Singer'][w]:.2f} %",
@@ -133,12 +134,12 @@ def _baseline_cells(mse, cells, paper_singer):
     (the paper's total and manoeuvring Singer RMSE)."""
     if not cells:
         raise ValueError("cells must hold at least one failure definition")
-    keys, specs = [], []
+    keys, queries = [], []
     for d, c in cells.items():
         for key, num, den, w in BASELINE:
             keys.append((d, key))
-            specs.append((num, den, w, c.failed))
-    out = dict(zip(keys, _pooled_cis(mse, None, specs)))
+            queries.append((num, den, w, c.failed))
+    out = dict(zip(keys, _pooled_cis(mse, None, queries)))
     for d in cells:
         for key, c in (("singer_total", paper_singer[0]), ("singer_man", paper_singer[1])):
             e = out[d, key]
