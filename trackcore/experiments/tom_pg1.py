@@ -16,6 +16,11 @@ best point of 001-05 on Table 1's runs at P_G = 0.99, 0.999 and 0.9999 (the same
 measurements as ``tom-imm-houles`` and ``tom-imm-houles-gates``, so paired with Singer,
 CAR and the declared TOM there): per gate and filter the window mean squares, the largest
 and last squared error and the target's gating per scan.
+
+``tom-imm-houles-postturn`` and ``tom-imm-houles-pg1-postturn``: Singer, CAR, the declared
+and the jointly tuned TOM on Table 1's runs at the three gates, and on the 3000 runs of
+``tom-imm-houles-pg1`` without a gate: per filter the mean squared position error in the
+5 s after each turn (t = 36-40 and 71-75 s) and the largest squared error.
 """
 from __future__ import annotations
 
@@ -169,4 +174,40 @@ register(Experiment(
                  "velocity-heading variant's best point on Table 1's runs at three gates"),
     trial=houles_sweep_trial, call=_gates_call, extract=_gates_extract,
     config=TomGatesConfig(), seed=SEED, runs=1000, version="1",
+    notebook="book/001-tom-imm/03-houles-monte-carlo.ipynb"))
+
+
+def _post_mask():
+    """The 5 s after each turn, t = 36-40 and 71-75 s, on the samples t = 1..90."""
+    t = np.arange(1.0, 91.0)
+    return ((t >= 36) & (t <= 40)) | ((t >= 71) & (t <= 75))
+
+
+def _postturn_extract(run, config):
+    """Per filter: the post-turn mean squared error and the largest squared error."""
+    e = np.asarray(run.pos_err2, dtype=np.float64)  # (filters, 90)
+    return {"post_mse": e[:, _post_mask()].mean(axis=-1), "max_err2": e.max(axis=-1)}
+
+
+def _gates_postturn_extract(runs, config):
+    """Per gate and filter: the post-turn mean squared error and the largest squared
+    error."""
+    e = np.stack([np.asarray(r.pos_err2, dtype=np.float64) for r in runs])  # (G, F, 90)
+    return {"post_mse": e[..., _post_mask()].mean(axis=-1), "max_err2": e.max(axis=-1)}
+
+
+register(Experiment(
+    name="tom-imm-houles-postturn",
+    description=("TOM-IMM chapter, the post-turn window: Singer, CAR, the declared and the "
+                 "jointly tuned TOM on Table 1's runs at P_G = 0.99, 0.999 and 0.9999"),
+    trial=houles_sweep_trial, call=_gates_call, extract=_gates_postturn_extract,
+    config=TomGatesConfig(filters=FILTERS), seed=SEED, runs=1000, version="1",
+    notebook="book/001-tom-imm/03-houles-monte-carlo.ipynb"))
+
+register(Experiment(
+    name="tom-imm-houles-pg1-postturn",
+    description=("TOM-IMM chapter, the post-turn window without a gate: Singer, CAR, the "
+                 "declared and the jointly tuned TOM on the runs of tom-imm-houles-pg1"),
+    trial=houles_imm_trial, call=_call, extract=_postturn_extract,
+    config=TomNoGateConfig(), seed=SEED, runs=3000, version="1",
     notebook="book/001-tom-imm/03-houles-monte-carlo.ipynb"))
