@@ -372,3 +372,4 @@ from . import (
     fjpda_readings,  # noqa: E402,F401  (004: the readings at 200 seeds, issue 29)
 )
 from . import tom_pg1  # noqa: E402,F401  (001-03: tom-imm-houles-pg1, no gate)
+from . import tom_ladder  # noqa: E402,F401  (001-05: the cause ladder, headings)

@@ -62,6 +62,8 @@ from ..models.tom import chord_heading_kernel, tom_process_noise_kernel, tom_tra
 
 __all__ = [
     "TOM_HEADINGS",
+    "SMOOTH_ALPHA",
+    "HEADING_KF_SIGMAS",
     "IMMModelSet",
     "IMMPDAFResult",
     "markov_matrix",
@@ -82,8 +84,23 @@ _LOG_2PI = math.log(2.0 * math.pi)
 #: Heading rules of the TOM cycle: ``"chord"`` (eq. 8 with the most recent
 #: chord, the chapter's reading), ``"chord_literal"`` (eq. 8 indexed as printed
 #: with ``Phi(k) = Phi(t_{k+1}, t_k)``: the chord one scan older) and
-#: ``"velocity"`` (direction of the combined velocity estimate).
-TOM_HEADINGS = ("chord", "chord_literal", "velocity")
+#: ``"velocity"`` (direction of the combined velocity estimate); the alternatives
+#: the paper's sec. 3.1 names and rejects: ``"chord_mean2"`` and ``"chord_mean3"``
+#: (circular mean of the last 2 or 3 chords), ``"smoothed"`` (exponential smoothing
+#: of the chord headings, weight :data:`SMOOTH_ALPHA` on the newest) and
+#: ``"heading_rate_kf"`` (a separate Kalman filter of heading and turn rate fed with
+#: the chord headings, its heading extrapolated by one scan; see
+#: :data:`HEADING_KF_SIGMAS`).
+TOM_HEADINGS = ("chord", "chord_literal", "velocity", "chord_mean2", "chord_mean3",
+                "smoothed", "heading_rate_kf")
+#: Weight of the newest chord in the ``"smoothed"`` heading (mean age of the smoothed
+#: chords: ``(1 - a) / a`` = 1 scan older than the newest chord).
+SMOOTH_ALPHA = 0.5
+#: ``"heading_rate_kf"``: standard deviation of a chord heading (rad; two estimates
+#: about 400 m apart with about 14 m of lateral error each) and of the turn-rate
+#: noise (rad/s^2, DWNA on the rate), and the prior standard deviation of the rate
+#: (rad/s).
+HEADING_KF_SIGMAS = (0.05, 0.05, 0.1)
 
 
 def _stack3(x, name, r, n):
@@ -512,7 +529,9 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
     ``heading_mode``: 0 chord of the last two combined positions, 1 the chord
     one scan older (eq. 8 indexed literally; the first scan extrapolates the
     initial chord back, so it uses ``phi0``), 2 direction of the last combined
-    velocity.  ``reset_var``: the reset also zeroes the ``v_s`` row and column of
+    velocity, 3 and 4 the circular mean of the last 2 and 3 chords, 5 the
+    exponentially smoothed chord heading, 6 the heading-and-rate Kalman filter
+    (:data:`TOM_HEADINGS`).  ``reset_var``: the reset also zeroes the ``v_s`` row and column of
     each model's covariance; ``rotate_cov``: each model's covariance is turned
     into the frame of the new heading (``blkdiag(I, Rot(phi - phi_prev))``)
     before mixing.  ``log_lam = log(lambda)`` (``-inf`` without clutter),
@@ -556,6 +575,13 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
     log_miss = math.log(miss) if miss > 0 else -np.inf
     p2x, p2y, p1x, p1y = prev2[0], prev2[1], prev1[0], prev1[1]
     p3x, p3y = 2.0 * p2x - p1x, 2.0 * p2y - p1y
+    p4x, p4y = 3.0 * p2x - 2.0 * p1x, 3.0 * p2y - 2.0 * p1y
+    # heading filters (modes 5, 6): smoothed heading; heading, rate and covariance
+    sm = phi0
+    hf, hw = phi0, 0.0
+    h00, h01, h11 = HEADING_KF_SIGMAS[0] ** 2, 0.0, HEADING_KF_SIGMAS[2] ** 2
+    hq = HEADING_KF_SIGMAS[1] ** 2
+    hr = HEADING_KF_SIGMAS[0] ** 2
     vcx, vcy = v0[0], v0[1]
     phi = phi0
     phi_frame = phi0  # the heading whose frame the model covariances are in
@@ -571,8 +597,40 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
                 phi = chord_heading_kernel(p2x, p2y, p1x, p1y, phi, 1e-6)
             elif heading_mode == 1:
                 phi = chord_heading_kernel(p3x, p3y, p2x, p2y, phi, 1e-6)
-            else:
+            elif heading_mode == 2:
                 phi = chord_heading_kernel(0.0, 0.0, vcx, vcy, phi, 1e-6)
+            else:
+                c1 = chord_heading_kernel(p2x, p2y, p1x, p1y, phi, 1e-6)
+                if heading_mode == 3 or heading_mode == 4:
+                    c2 = chord_heading_kernel(p3x, p3y, p2x, p2y, phi, 1e-6)
+                    cs = math.cos(c1) + math.cos(c2)
+                    sn = math.sin(c1) + math.sin(c2)
+                    if heading_mode == 4:
+                        c3 = chord_heading_kernel(p4x, p4y, p3x, p3y, phi, 1e-6)
+                        cs += math.cos(c3)
+                        sn += math.sin(c3)
+                    phi = math.atan2(sn, cs)
+                elif heading_mode == 5:
+                    dd = c1 - sm
+                    sm += SMOOTH_ALPHA * math.atan2(math.sin(dd), math.cos(dd))
+                    phi = sm
+                else:
+                    # predict heading and rate by one scan, update with the chord
+                    hf += T * hw
+                    t4 = hq * T * T
+                    h00 += 2.0 * T * h01 + T * T * h11 + t4 * T * T / 4.0
+                    h01 += T * h11 + t4 * T / 2.0
+                    h11 += t4
+                    dd = c1 - hf
+                    dd = math.atan2(math.sin(dd), math.cos(dd))
+                    sv = h00 + hr
+                    g0, g1 = h00 / sv, h01 / sv
+                    hf += g0 * dd
+                    hw += g1 * dd
+                    h11 -= g1 * h01
+                    h01 -= g0 * h01
+                    h00 -= g0 * h00
+                    phi = hf + T * hw  # the chord describes k - 3/2; predict k - 1/2
             for j in range(r):
                 tom_transition_kernel(phi, T, Fk[j])
                 tom_process_noise_kernel(phi, T, var_f[j], var_s[j], cwna, Qk[j])
@@ -717,6 +775,7 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
             mus[k, j] = mu[j]
         # 8. TOM: remember the combined position, reset v_s
         if tom:
+            p4x, p4y = p3x, p3y
             p3x, p3y = p2x, p2y
             p2x, p2y = p1x, p1y
             p1x, p1y = xc[0], xc[1]
