@@ -32,7 +32,8 @@ _NB = "book/001-tom-imm/05-why-the-claim-fails.ipynb"
 #: The TOM settings a filter key may change, and how each value is read.
 _TOM_KEYS = {"heading": str, "reset_vs_variance": bool, "rotate_covariance": bool,
              "u": float, "sigma_s_turn": float, "sigma_s_centre": float, "sigma_f": float,
-             "p_stay": float, "u_right": float, "u_left": float}
+             "p_stay": float, "u_right": float, "u_left": float,
+             "reproject_velocity": bool, "vs_prior_var": float}
 #: The settings of a known-rate coordinated-turn IMM key ``"ct:NAME=VALUE,..."``: the
 #: CV model's and the turn models' DWNA noises (m/s^2) and the Markov diagonal; its
 #: turn rates are the scenario's two true rates.

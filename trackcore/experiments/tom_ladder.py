@@ -27,7 +27,7 @@ from ..scenarios.houles import (HOULES_INITIAL_STATE, HOULES_TURNS, houles_imm_t
 from ._checks import check_finite, check_names
 from ._core import Experiment, register
 from .registry import _Config, _houles_model_set, houles_sweep_trial
-from .tom_cause import _tom_variant
+from .tom_cause import TomVariantsConfig, _tom_variant, _variants_call
 from .tom_pg1 import TomGatesConfig, TomNoGateConfig, _call, _extract, _gates_call
 
 __all__: list[str] = []
@@ -168,4 +168,29 @@ register(Experiment(
                  "no gate, clutter in a 6 km square, Table 1's runs"),
     trial=houles_imm_trial, call=_call, extract=_extract,
     config=TomNoGateConfig(filters=HEADINGS), seed=SEED, runs=1000, version="1",
+    notebook=_NB))
+
+
+#: Two more readings of the frame change (ablations), after the chapter's TOM (for its
+#: velocity errors): the velocity re-projected into the new heading's frame, and the
+#: v_s variance reset to a prior ((20 m/s)^2, (70 m/s)^2).
+FRAME_READINGS = ("tom", "tom:rotate_covariance=1,reproject_velocity=1",
+                  "tom:vs_prior_var=400.0", "tom:vs_prior_var=4900.0")
+
+
+def _frame_extract(run, config):
+    """Per filter: window mean squares, the largest squared position error, and the
+    mean and largest squared velocity error over the run (a speed that runs away)."""
+    e = np.asarray(run.pos_err2, dtype=np.float64)
+    v = np.asarray(run.vel_err2, dtype=np.float64)
+    return {"window_mse": window_mse(e), "max_err2": e.max(axis=-1),
+            "vel_mse": v.mean(axis=-1), "max_vel_err2": v.max(axis=-1)}
+
+
+register(Experiment(
+    name="tom-cause-frame-readings",
+    description=("TOM-IMM chapter, two more readings of the frame change: velocity "
+                 "re-projected, v_s variance reset to a prior, on Table 1's runs"),
+    trial=houles_imm_trial, call=_variants_call, extract=_frame_extract,
+    config=TomVariantsConfig(FRAME_READINGS), seed=SEED, runs=1000, version="1",
     notebook=_NB))

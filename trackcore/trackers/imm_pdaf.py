@@ -62,8 +62,6 @@ from ..models.tom import chord_heading_kernel, tom_process_noise_kernel, tom_tra
 
 __all__ = [
     "TOM_HEADINGS",
-    "SMOOTH_ALPHA",
-    "HEADING_KF_SIGMAS",
     "IMMModelSet",
     "IMMPDAFResult",
     "markov_matrix",
@@ -167,9 +165,17 @@ class IMMModelSet:
         TOM: also zero the ``v_s`` row and column of each model's covariance at the reset.
     rotate_covariance : bool
         TOM: rotate each model's velocity covariance into the new heading's frame.
+    reproject_velocity : bool
+        TOM (needs ``rotate_covariance``): turn each model's velocity mean into the new
+        heading's frame as well and keep ``v_s`` instead of resetting it (the
+        re-projection reading of the frame change).
+    vs_prior_var : float
+        TOM: if positive, reset the ``v_s`` variance of each model to this prior
+        ((m/s)^2, cross terms zeroed) at the reset; 0 keeps the covariance.
 
     The TOM-only fields (``u``, ``var_f``, ``var_s``, ``cwna``, ``heading``,
-    ``reset_vs_variance``, ``rotate_covariance``) must keep their defaults (or zeros)
+    ``reset_vs_variance``, ``rotate_covariance``, ``reproject_velocity``,
+    ``vs_prior_var``) must keep their defaults (or zeros)
     when ``tom`` is false: a non-TOM model set would silently ignore them.
     """
 
@@ -192,6 +198,8 @@ class IMMModelSet:
     heading: str = "chord"
     reset_vs_variance: bool = False
     rotate_covariance: bool = False
+    reproject_velocity: bool = False
+    vs_prior_var: float = 0.0
 
     def __post_init__(self):
         def put(field, value):
@@ -245,6 +253,13 @@ class IMMModelSet:
             raise ValueError(f"heading must be one of {TOM_HEADINGS}, got {self.heading!r}")
         put("reset_vs_variance", _flag(self.reset_vs_variance, "reset_vs_variance"))
         put("rotate_covariance", _flag(self.rotate_covariance, "rotate_covariance"))
+        put("reproject_velocity", _flag(self.reproject_velocity, "reproject_velocity"))
+        if self.reproject_velocity and not self.rotate_covariance:
+            raise ValueError("reproject_velocity needs rotate_covariance=True (the mean "
+                             "and the covariance turn together)")
+        put("vs_prior_var", float(as_nonnegative(self.vs_prior_var, "vs_prior_var")))
+        if self.vs_prior_var > 0 and self.reset_vs_variance:
+            raise ValueError("give reset_vs_variance or vs_prior_var, not both")
         if not tom:
             for field in ("u", "var_f", "var_s"):
                 if np.any(getattr(self, field) != 0):
@@ -252,7 +267,8 @@ class IMMModelSet:
                                      f"(a non-TOM model set would ignore it)")
             for field, default in (("cwna", False), ("heading", "chord"),
                                    ("reset_vs_variance", False),
-                                   ("rotate_covariance", False)):
+                                   ("rotate_covariance", False),
+                                   ("reproject_velocity", False), ("vs_prior_var", 0.0)):
                 if getattr(self, field) != default:
                     raise ValueError(f"{field} is a TOM option; it needs tom=True "
                                      f"(a non-TOM model set would ignore it)")
@@ -422,7 +438,7 @@ def cv_model_set(T=1.0, sigma=1.0):
 
 def tom_model_set(u, sigma_s, sigma_f=1.0, T=1.0, transition=None, mu0=None, kind="dwna",
                   heading="chord", name="TOM-IMM", labels=None, reset_vs_variance=False,
-                  rotate_covariance=False):
+                  rotate_covariance=False, reproject_velocity=False, vs_prior_var=0.0):
     """Target-oriented models with lateral inputs ``u`` (m/s, one per model; ``+`` is
     to the right of the heading) and lateral noises ``sigma_s`` (m/s^2, one per
     model).
@@ -434,7 +450,8 @@ def tom_model_set(u, sigma_s, sigma_f=1.0, T=1.0, transition=None, mu0=None, kin
     first model with the rest spread evenly.  ``labels`` (one string per model)
     default to the inputs.  ``reset_vs_variance`` and ``rotate_covariance`` select
     the covariance readings of the cycle (see the module docstring; both off is
-    the book's reading).
+    the book's reading); ``reproject_velocity`` and ``vs_prior_var`` two more
+    readings of the frame change (:class:`IMMModelSet`).
     """
     T = as_positive(T, "T")
     u = as_array(u, "u", ndim=1)
@@ -467,19 +484,22 @@ def tom_model_set(u, sigma_s, sigma_f=1.0, T=1.0, transition=None, mu0=None, kin
                    np.eye(4), np.zeros(4), [0, 1, 2, 3], tom=True, T=T, u=u,
                    var_f=var_f, var_s=var_s, cwna=(kind == "cwna"),
                    heading=heading, reset_vs_variance=reset_vs_variance,
-                   rotate_covariance=rotate_covariance)
+                   rotate_covariance=rotate_covariance,
+                   reproject_velocity=reproject_velocity, vs_prior_var=vs_prior_var)
 
 
 def tom_imm_model_set(T=1.0, u=70.0, sigma_f=1.0, sigma_s_centre=3.0, sigma_s_turn=20.0,
                       transition=None, mu0=(0.8, 0.1, 0.1), kind="dwna", heading="chord",
-                      reset_vs_variance=False, rotate_covariance=False):
+                      reset_vs_variance=False, rotate_covariance=False,
+                      reproject_velocity=False, vs_prior_var=0.0):
     """The paper's three target-oriented models with lateral inputs ``0, +u, -u`` (m/s).
 
     ``+u`` is a right turn (``+v_s`` points right of the heading).  Process
     noise :func:`trackcore.models.tom_process_noise` of ``kind`` with
     ``sigma_f`` for all models and ``sigma_s_centre`` / ``sigma_s_turn`` for the
     lateral axis; ``heading`` is one of :data:`TOM_HEADINGS`;
-    ``reset_vs_variance`` and ``rotate_covariance`` as in :func:`tom_model_set`.
+    ``reset_vs_variance``, ``rotate_covariance``, ``reproject_velocity`` and
+    ``vs_prior_var`` as in :func:`tom_model_set`.
     """
     u = as_nonnegative(u, "u")
     sigma_f = _std(sigma_f, "sigma_f")
@@ -489,7 +509,8 @@ def tom_imm_model_set(T=1.0, u=70.0, sigma_f=1.0, sigma_s_centre=3.0, sigma_s_tu
     return tom_model_set([0.0, u, -u], [sc, st, st], sigma_f=sigma_f, T=T,
                          transition=transition, mu0=mu0, kind=kind, heading=heading,
                          labels=labels, reset_vs_variance=reset_vs_variance,
-                         rotate_covariance=rotate_covariance)
+                         rotate_covariance=rotate_covariance,
+                         reproject_velocity=reproject_velocity, vs_prior_var=vs_prior_var)
 
 
 def two_point_init(z0, z1, R, T=1.0):
@@ -531,10 +552,11 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
     initial chord back, so it uses ``phi0``), 2 direction of the last combined
     velocity, 3 and 4 the circular mean of the last 2 and 3 chords, 5 the
     exponentially smoothed chord heading, 6 the heading-and-rate Kalman filter
-    (:data:`TOM_HEADINGS`).  ``reset_var``: the reset also zeroes the ``v_s`` row and column of
-    each model's covariance; ``rotate_cov``: each model's covariance is turned
+    (:data:`TOM_HEADINGS`).  ``reset_var``: below 0 the reset keeps the covariance; 0 zeroes the ``v_s``
+    row and column of each model's covariance; above 0 also sets the ``v_s`` variance to
+    it.  ``rotate_cov``: 1 or 2, each model's covariance is turned
     into the frame of the new heading (``blkdiag(I, Rot(phi - phi_prev))``)
-    before mixing.  ``log_lam = log(lambda)`` (``-inf`` without clutter),
+    before mixing (2: the velocity mean too, and ``v_s`` is not reset).  ``log_lam = log(lambda)`` (``-inf`` without clutter),
     ``gamma`` the gate threshold.  Outputs (preallocated): ``xs`` (K, 4),
     ``Ps`` (K, 4, 4), ``mus`` (K, r), ``zps`` (K, 2), ``Ss`` (K, 2, 2),
     ``gated`` (N,), ``headings`` (K,).  Returns -1, or the scan index at which
@@ -656,6 +678,11 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
                         t3 = P[j, a, 3]
                         P[j, a, 2] = t2 * B2[0, 0] + t3 * B2[0, 1]
                         P[j, a, 3] = t2 * B2[1, 0] + t3 * B2[1, 1]
+                    if rotate_cov == 2:  # re-project the velocity mean too
+                        t2 = X[j, 2]
+                        t3 = X[j, 3]
+                        X[j, 2] = B2[0, 0] * t2 + B2[0, 1] * t3
+                        X[j, 3] = B2[1, 0] * t2 + B2[1, 1] * t3
             phi_frame = phi
         else:
             headings[k] = np.nan
@@ -781,12 +808,27 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
             p1x, p1y = xc[0], xc[1]
             vcx, vcy = xs[k, 2], xs[k, 3]
             for j in range(r):
-                X[j, 3] = 0.0
-                if reset_var:
+                if rotate_cov != 2:
+                    X[j, 3] = 0.0
+                if reset_var >= 0.0:
                     for a in range(n):
                         P[j, 3, a] = 0.0
                         P[j, a, 3] = 0.0
+                    P[j, 3, 3] = reset_var
     return -1
+
+
+def _reset_code(models):
+    """The kernel's ``reset_var``: -1 keeps the covariance at the reset, 0 zeroes the
+    ``v_s`` row and column, a positive value resets the ``v_s`` variance to it."""
+    if models.reset_vs_variance:
+        return 0.0
+    return models.vs_prior_var if models.vs_prior_var > 0 else -1.0
+
+
+def _rotate_code(models):
+    """The kernel's ``rotate_cov``: 0 none, 1 the covariance, 2 covariance and mean."""
+    return 2 if models.reproject_velocity else int(models.rotate_covariance)
 
 
 # ---------------------------------------------------------------------- public
@@ -845,7 +887,7 @@ def imm_pdaf_track_packed(models, z, offsets, x0, P0, R, *, pd=1.0, pg=0.99,
                               models.F, models.Q, models.H, R, models.transition, models.mu0,
                               models.tom, models.T, models.u, models.var_f, models.var_s,
                               models.cwna, TOM_HEADINGS.index(models.heading),
-                              models.reset_vs_variance, models.rotate_covariance,
+                              _reset_code(models), _rotate_code(models),
                               np.ascontiguousarray(prev2), x0[:2].copy(), x0[2:].copy(), phi0,
                               models.out_index, pd, pg, float(gamma),
                               math.log(lam) if lam > 0 else -math.inf,
