@@ -374,3 +374,4 @@ from . import (
 from . import tom_pg1  # noqa: E402,F401  (001-03: tom-imm-houles-pg1, no gate)
 from . import hpda_comparators  # noqa: E402,F401  (000-hpda/08: hpda-cmp-pi*)
 from . import fjpda_templates  # noqa: E402,F401  (004: template cells, HOTA, occlusion map)
+from . import tom_ladder  # noqa: E402,F401  (001-05: the cause ladder, headings)

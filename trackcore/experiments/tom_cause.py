@@ -32,7 +32,12 @@ _NB = "book/001-tom-imm/05-why-the-claim-fails.ipynb"
 #: The TOM settings a filter key may change, and how each value is read.
 _TOM_KEYS = {"heading": str, "reset_vs_variance": bool, "rotate_covariance": bool,
              "u": float, "sigma_s_turn": float, "sigma_s_centre": float, "sigma_f": float,
-             "p_stay": float}
+             "p_stay": float, "u_right": float, "u_left": float,
+             "reproject_velocity": bool, "vs_prior_var": float}
+#: The settings of a known-rate coordinated-turn IMM key ``"ct:NAME=VALUE,..."``: the
+#: CV model's and the turn models' DWNA noises (m/s^2) and the Markov diagonal; its
+#: turn rates are the scenario's two true rates.
+_CT_KEYS = {"cv": float, "ct": float, "p_stay": float}
 
 
 def _finite(config, names):
@@ -44,7 +49,9 @@ def _finite(config, names):
 def _tom_variant(key):
     """The TOM-IMM model set of a filter key: ``"tom"`` (the chapter's) or
     ``"tom:NAME=VALUE"`` with NAME one of ``_TOM_KEYS`` (``p_stay``: the Markov
-    diagonal); several settings are joined by commas, ``"tom:u=50.0,p_stay=0.95"``."""
+    diagonal; ``u_right``/``u_left``: unequal right and left inputs); several
+    settings are joined by commas, ``"tom:u=50.0,p_stay=0.95"``; or a known-rate
+    CT-IMM ``"ct:cv=1.0,ct=8.0,p_stay=0.9"`` (``_CT_KEYS``)."""
     from ..trackers import markov_matrix, tom_imm_model_set
 
     if not isinstance(key, str):
@@ -52,23 +59,56 @@ def _tom_variant(key):
     if key == "tom":
         return tom_imm_model_set()
     kind, _, settings = key.partition(":")
+    names = {"tom": _TOM_KEYS, "ct": _CT_KEYS}.get(kind, {})
     kwargs = {}
     for setting in settings.split(","):
         name, _, value = setting.partition("=")
-        if kind != "tom" or name not in _TOM_KEYS or not value or name in kwargs:
-            raise ValueError(f"unknown filter key {key!r}; expected 'tom' or "
+        if name not in names or not value or name in kwargs:
+            raise ValueError(f"unknown filter key {key!r}; expected 'tom', "
                              f"'tom:NAME=VALUE[,NAME=VALUE...]' with distinct NAMEs in "
-                             f"{sorted(_TOM_KEYS)}")
-        kwargs[name] = _tom_value(key, name, value)
+                             f"{sorted(_TOM_KEYS)}, or 'ct:NAME=VALUE,...' with NAMEs "
+                             f"in {sorted(_CT_KEYS)}")
+        kwargs[name] = _tom_value(key, name, value, names)
+    if kind == "ct":
+        return _known_rate_ct(key, **kwargs)
     if "p_stay" in kwargs:
         kwargs["transition"] = markov_matrix(3, kwargs.pop("p_stay"))
+    if "u_right" in kwargs or "u_left" in kwargs:
+        return _tom_asymmetric(key, **kwargs)
     return tom_imm_model_set(**kwargs)
 
 
-def _tom_value(key, name, value):
-    """The value of one ``NAME=VALUE`` setting of a filter key, read as ``_TOM_KEYS``
-    says."""
-    kind_of = _TOM_KEYS[name]
+def _known_rate_ct(key, cv=1.0, ct=8.0, p_stay=0.9):
+    """A CV and two coordinated-turn models at the scenario's true turn rates."""
+    from ..scenarios.houles import HOULES_TURNS
+    from ..trackers import ct_imm_model_set, markov_matrix
+
+    if not (cv >= 0 and ct >= 0 and 0 < p_stay < 1):
+        raise ValueError(f"filter key {key!r}: need cv, ct >= 0 and 0 < p_stay < 1")
+    omegas = [0.0, HOULES_TURNS[0][2], HOULES_TURNS[1][2]]
+    return ct_imm_model_set(omegas, [cv, ct, ct], transition=markov_matrix(3, p_stay),
+                            name="known-rate CT-IMM")
+
+
+def _tom_asymmetric(key, u_right=70.0, u_left=70.0, sigma_f=1.0, sigma_s_centre=3.0,
+                    sigma_s_turn=20.0, **kwargs):
+    """The paper's three TOM models with a right input ``+u_right`` and a left input
+    ``-u_left`` (m/s), the other settings as in ``tom_imm_model_set``."""
+    from ..trackers import tom_model_set
+
+    if "u" in kwargs:
+        raise ValueError(f"filter key {key!r}: give u or u_right/u_left, not both")
+    if not (u_right >= 0 and u_left >= 0):
+        raise ValueError(f"filter key {key!r}: u_right and u_left must be >= 0")
+    sc, st = sigma_s_centre, sigma_s_turn
+    return tom_model_set([0.0, u_right, -u_left], [sc, st, st], sigma_f=sigma_f,
+                         mu0=(0.8, 0.1, 0.1), **kwargs)
+
+
+def _tom_value(key, name, value, names=_TOM_KEYS):
+    """The value of one ``NAME=VALUE`` setting of a filter key, read as ``names``
+    (``_TOM_KEYS`` or ``_CT_KEYS``) says."""
+    kind_of = names[name]
     if kind_of is bool:
         if value not in ("0", "1"):
             raise ValueError(f"filter key {key!r}: {name} must be 0 or 1")

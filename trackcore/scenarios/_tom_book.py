@@ -170,3 +170,175 @@ def acceleration_seed_stats(rng, rng_n) -> dict[str, float]:
         "n_ks_s": ks_distance(a3.accel_fs[:, 1]),
         "n_vmax": float(np.hypot(*a3.velocity.T).max()),
     }
+
+
+# --------------------------------------------------------------------------- 001-05
+def over(max_err2, threshold):
+    """Failures from the largest squared error per run: error > ``threshold`` (m) at
+    some time, as ``position_failures`` gives from the error series."""
+    if not threshold > 0:
+        raise ValueError(f"threshold must be positive, got {threshold}")
+    return np.asarray(max_err2) > threshold**2
+
+
+#: The failure definitions of the chapter's ``failure`` reading, in its order: key,
+#: registry value.
+FAILURE_DEFS = (
+    ("f200", "error > 200 m at some time"),
+    ("f300", "error > 300 m at some time"),
+    ("f500", "error > 500 m at some time"),
+    ("f1000", "error > 1000 m at some time"),
+    ("lost", "still > 200 m at t = 90 s"),
+    ("miss", "3 gate misses in a row"),
+)
+
+
+def failure_masks(max_err2, last_err2, streak):
+    """Every failure definition of :data:`FAILURE_DEFS` as a bool array of the shape
+    of ``max_err2``: thresholds on the largest squared error, a lost track from the
+    last one, and 3 gate misses in a row from the longest streak (of scans outside
+    every gate, or without a gate of NIS above the 0.99 gate's threshold)."""
+    max_err2, last_err2 = np.asarray(max_err2), np.asarray(last_err2)
+    streak = np.asarray(streak)
+    if not max_err2.shape == last_err2.shape == streak.shape:
+        raise ValueError(
+            f"max_err2, last_err2 and streak must have one shape, got {max_err2.shape}, "
+            f"{last_err2.shape}, {streak.shape}"
+        )
+    out = {k: over(max_err2, float(k[1:])) for k, _ in FAILURE_DEFS[:4]}
+    out["lost"] = last_err2 > 200.0**2
+    out["miss"] = streak >= 3
+    return out
+
+
+def step_word(est, ref=1.0):
+    """``"better"`` (lower) when the interval lies below ``ref``, ``"worse"`` when
+    above, otherwise ``"tie"``: the ladder's reading of one step's change."""
+    if est.hi < ref:
+        return "better"
+    if est.lo > ref:
+        return "worse"
+    return "tie"
+
+
+def ladder_steps(mse, failed, steps, singer=0):
+    """Each step of a ladder against the step before on the same runs.
+
+    ``mse`` (runs, filters, 3) window mean squares, ``failed`` (runs, filters) bool,
+    ``steps`` the filter indices in ladder order. Returns one dict per step: the
+    paired RMSE ratios to the step before (``"total"``, ``"man"``) and to Singer
+    (``"vs_singer"``, ``"vs_singer_man"``), the failure rate (``"fail"``) and the
+    paired failure difference with the step before (``"fail_diff"``, a
+    ``FailureComparison``); the first step has no ``"total"``, ``"man"`` or
+    ``"fail_diff"``."""
+    from trackcore.scenarios import failure_comparison, rmse_ratio_mse
+    from trackcore.stats import rate_ci
+
+    mse, failed = np.asarray(mse), np.asarray(failed)
+    if mse.ndim != 3 or failed.shape != mse.shape[:2]:
+        raise ValueError(
+            f"mse must be (runs, filters, 3) and failed (runs, filters), got "
+            f"{mse.shape}, {failed.shape}"
+        )
+    if len(steps) < 2:
+        raise ValueError("a ladder needs at least 2 steps")
+    out = []
+    for i, f in enumerate(steps):
+        d = {
+            "vs_singer": rmse_ratio_mse(mse, failed, f, singer),
+            "vs_singer_man": rmse_ratio_mse(mse, failed, f, singer, window="manoeuvring"),
+            "fail": rate_ci(failed[:, f], failed.shape[0]),
+        }
+        if i:
+            g = steps[i - 1]
+            d["total"] = rmse_ratio_mse(mse, failed, f, g)
+            d["man"] = rmse_ratio_mse(mse, failed, f, g, window="manoeuvring")
+            d["fail_diff"] = failure_comparison(failed, f, g)
+        out.append(d)
+    return out
+
+
+def heading_ratios(mse, masks, alternatives, chord=0):
+    """Total RMSE of each alternative heading over the chord TOM's, on the same runs,
+    under each failure definition: ``{(alt, def): Estimate or None}`` (None when a
+    filter survives fewer than 2 runs, so that no ratio exists). ``mse`` (runs,
+    filters, 3); ``masks`` from :func:`failure_masks`; ``alternatives`` filter
+    indices."""
+    from trackcore.scenarios import rmse_ratio_mse
+
+    out = {}
+    for key, fl in masks.items():
+        for a in alternatives:
+            try:
+                out[a, key] = rmse_ratio_mse(mse, fl, a, chord)
+            except ValueError:
+                out[a, key] = None
+    return out
+
+
+def scaled(est, c):
+    """An interval divided by a constant (e.g. ours / the paper's number)."""
+    from trackcore.stats import Estimate
+
+    if not c > 0:
+        raise ValueError(f"c must be positive, got {c}")
+    return Estimate(est.value / c, est.lo / c, est.hi / c, est.level, est.n, est.method)
+
+
+def verdict_word(est, claim, lo=None, hi=None):
+    """The scorecard's verdict on a ratio claim: the claim's value inside the interval,
+    the tolerance band met, or the claim's value excluded."""
+    from trackcore.stats import band_verdict
+
+    if est.contains(claim):
+        return "reproduced"
+    if band_verdict(est, lo, hi) == "met":
+        return "reproduced within tolerance"
+    return "not reproduced"
+
+
+def grid_scores(E_points, E_singer):
+    """A grid's scores against Singer on the same runs: ``(points, 3)`` RMSE ratios
+    (total, manoeuvring, non-manoeuvring) over the runs neither the point nor Singer
+    failed, and ``(points,)`` failure rates (error above 200 m). ``E_points`` (runs,
+    points, 90) and ``E_singer`` (runs, 90) squared errors."""
+    from trackcore.scenarios import position_failures, window_mse
+
+    fl = position_failures(E_points, 200.0)
+    ok = ~fl & ~position_failures(E_singer, 200.0)[:, None]
+    num = (window_mse(E_points) * ok[..., None]).sum(axis=0)
+    den = (window_mse(E_singer)[:, None, :] * ok[..., None]).sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        score = np.sqrt(num / den)
+    return np.where(np.isfinite(score), score, np.inf), fl.mean(axis=0)
+
+
+def local_search(memo, start, ladders, score, key, max_rounds=8):
+    """From ``start``, score the points one ladder step away along each axis (new
+    ones in one batch by ``score``) and move to the best neighbour while it lowers
+    ``key``. ``memo`` maps each scored point to its scores. Returns the final point."""
+    point = start
+    for _ in range(max_rounds):
+        nbrs = []
+        for a, lad in enumerate(ladders):
+            i = lad.index(point[a])
+            for j in (i - 1, i + 1):
+                if 0 <= j < len(lad):
+                    nbrs.append(point[:a] + (lad[j],) + point[a + 1 :])
+        score([q for q in nbrs if q not in memo])
+        best = min(nbrs, key=lambda q: key(memo[q]))
+        if key(memo[best]) >= key(memo[point]):
+            return point
+        point = best
+    return point
+
+
+def velocity_on_table1(stored):
+    """The velocity-heading variant's best point over Singer, total, on Table 1's
+    runs at P_G = 0.9999 (03's stores: Singer, CAR, TOM; tuned TOM, velocity)."""
+    from trackcore.scenarios import rmse_ratio_mse
+
+    gs, tg = stored["tom-imm-houles-gates"], stored["tom-imm-houles-tuned-gates"]
+    M = np.concatenate([gs["window_mse"][:, 1], tg["window_mse"][:, 2]], axis=1)
+    mx = np.concatenate([gs["max_err2"][:, 1], tg["max_err2"][:, 2]], axis=1)
+    return rmse_ratio_mse(M, over(mx, 200.0), 4, 0)

@@ -82,8 +82,23 @@ _LOG_2PI = math.log(2.0 * math.pi)
 #: Heading rules of the TOM cycle: ``"chord"`` (eq. 8 with the most recent
 #: chord, the chapter's reading), ``"chord_literal"`` (eq. 8 indexed as printed
 #: with ``Phi(k) = Phi(t_{k+1}, t_k)``: the chord one scan older) and
-#: ``"velocity"`` (direction of the combined velocity estimate).
-TOM_HEADINGS = ("chord", "chord_literal", "velocity")
+#: ``"velocity"`` (direction of the combined velocity estimate); the alternatives
+#: the paper's sec. 3.1 names and rejects: ``"chord_mean2"`` and ``"chord_mean3"``
+#: (circular mean of the last 2 or 3 chords), ``"smoothed"`` (exponential smoothing
+#: of the chord headings, weight :data:`SMOOTH_ALPHA` on the newest) and
+#: ``"heading_rate_kf"`` (a separate Kalman filter of heading and turn rate fed with
+#: the chord headings, its heading extrapolated by one scan; see
+#: :data:`HEADING_KF_SIGMAS`).
+TOM_HEADINGS = ("chord", "chord_literal", "velocity", "chord_mean2", "chord_mean3",
+                "smoothed", "heading_rate_kf")
+#: Weight of the newest chord in the ``"smoothed"`` heading (mean age of the smoothed
+#: chords: ``(1 - a) / a`` = 1 scan older than the newest chord).
+SMOOTH_ALPHA = 0.5
+#: ``"heading_rate_kf"``: standard deviation of a chord heading (rad; two estimates
+#: about 400 m apart with about 14 m of lateral error each) and of the turn-rate
+#: noise (rad/s^2, DWNA on the rate), and the prior standard deviation of the rate
+#: (rad/s).
+HEADING_KF_SIGMAS = (0.05, 0.05, 0.1)
 
 
 def _stack3(x, name, r, n):
@@ -150,9 +165,17 @@ class IMMModelSet:
         TOM: also zero the ``v_s`` row and column of each model's covariance at the reset.
     rotate_covariance : bool
         TOM: rotate each model's velocity covariance into the new heading's frame.
+    reproject_velocity : bool
+        TOM (needs ``rotate_covariance``): turn each model's velocity mean into the new
+        heading's frame as well and keep ``v_s`` instead of resetting it (the
+        re-projection reading of the frame change).
+    vs_prior_var : float
+        TOM: if positive, reset the ``v_s`` variance of each model to this prior
+        ((m/s)^2, cross terms zeroed) at the reset; 0 keeps the covariance.
 
     The TOM-only fields (``u``, ``var_f``, ``var_s``, ``cwna``, ``heading``,
-    ``reset_vs_variance``, ``rotate_covariance``) must keep their defaults (or zeros)
+    ``reset_vs_variance``, ``rotate_covariance``, ``reproject_velocity``,
+    ``vs_prior_var``) must keep their defaults (or zeros)
     when ``tom`` is false: a non-TOM model set would silently ignore them.
     """
 
@@ -175,6 +198,8 @@ class IMMModelSet:
     heading: str = "chord"
     reset_vs_variance: bool = False
     rotate_covariance: bool = False
+    reproject_velocity: bool = False
+    vs_prior_var: float = 0.0
 
     def __post_init__(self):
         def put(field, value):
@@ -228,6 +253,13 @@ class IMMModelSet:
             raise ValueError(f"heading must be one of {TOM_HEADINGS}, got {self.heading!r}")
         put("reset_vs_variance", _flag(self.reset_vs_variance, "reset_vs_variance"))
         put("rotate_covariance", _flag(self.rotate_covariance, "rotate_covariance"))
+        put("reproject_velocity", _flag(self.reproject_velocity, "reproject_velocity"))
+        if self.reproject_velocity and not self.rotate_covariance:
+            raise ValueError("reproject_velocity needs rotate_covariance=True (the mean "
+                             "and the covariance turn together)")
+        put("vs_prior_var", float(as_nonnegative(self.vs_prior_var, "vs_prior_var")))
+        if self.vs_prior_var > 0 and self.reset_vs_variance:
+            raise ValueError("give reset_vs_variance or vs_prior_var, not both")
         if not tom:
             for field in ("u", "var_f", "var_s"):
                 if np.any(getattr(self, field) != 0):
@@ -235,7 +267,8 @@ class IMMModelSet:
                                      f"(a non-TOM model set would ignore it)")
             for field, default in (("cwna", False), ("heading", "chord"),
                                    ("reset_vs_variance", False),
-                                   ("rotate_covariance", False)):
+                                   ("rotate_covariance", False),
+                                   ("reproject_velocity", False), ("vs_prior_var", 0.0)):
                 if getattr(self, field) != default:
                     raise ValueError(f"{field} is a TOM option; it needs tom=True "
                                      f"(a non-TOM model set would ignore it)")
@@ -405,7 +438,7 @@ def cv_model_set(T=1.0, sigma=1.0):
 
 def tom_model_set(u, sigma_s, sigma_f=1.0, T=1.0, transition=None, mu0=None, kind="dwna",
                   heading="chord", name="TOM-IMM", labels=None, reset_vs_variance=False,
-                  rotate_covariance=False):
+                  rotate_covariance=False, reproject_velocity=False, vs_prior_var=0.0):
     """Target-oriented models with lateral inputs ``u`` (m/s, one per model; ``+`` is
     to the right of the heading) and lateral noises ``sigma_s`` (m/s^2, one per
     model).
@@ -417,7 +450,8 @@ def tom_model_set(u, sigma_s, sigma_f=1.0, T=1.0, transition=None, mu0=None, kin
     first model with the rest spread evenly.  ``labels`` (one string per model)
     default to the inputs.  ``reset_vs_variance`` and ``rotate_covariance`` select
     the covariance readings of the cycle (see the module docstring; both off is
-    the book's reading).
+    the book's reading); ``reproject_velocity`` and ``vs_prior_var`` two more
+    readings of the frame change (:class:`IMMModelSet`).
     """
     T = as_positive(T, "T")
     u = as_array(u, "u", ndim=1)
@@ -450,19 +484,22 @@ def tom_model_set(u, sigma_s, sigma_f=1.0, T=1.0, transition=None, mu0=None, kin
                    np.eye(4), np.zeros(4), [0, 1, 2, 3], tom=True, T=T, u=u,
                    var_f=var_f, var_s=var_s, cwna=(kind == "cwna"),
                    heading=heading, reset_vs_variance=reset_vs_variance,
-                   rotate_covariance=rotate_covariance)
+                   rotate_covariance=rotate_covariance,
+                   reproject_velocity=reproject_velocity, vs_prior_var=vs_prior_var)
 
 
 def tom_imm_model_set(T=1.0, u=70.0, sigma_f=1.0, sigma_s_centre=3.0, sigma_s_turn=20.0,
                       transition=None, mu0=(0.8, 0.1, 0.1), kind="dwna", heading="chord",
-                      reset_vs_variance=False, rotate_covariance=False):
+                      reset_vs_variance=False, rotate_covariance=False,
+                      reproject_velocity=False, vs_prior_var=0.0):
     """The paper's three target-oriented models with lateral inputs ``0, +u, -u`` (m/s).
 
     ``+u`` is a right turn (``+v_s`` points right of the heading).  Process
     noise :func:`trackcore.models.tom_process_noise` of ``kind`` with
     ``sigma_f`` for all models and ``sigma_s_centre`` / ``sigma_s_turn`` for the
     lateral axis; ``heading`` is one of :data:`TOM_HEADINGS`;
-    ``reset_vs_variance`` and ``rotate_covariance`` as in :func:`tom_model_set`.
+    ``reset_vs_variance``, ``rotate_covariance``, ``reproject_velocity`` and
+    ``vs_prior_var`` as in :func:`tom_model_set`.
     """
     u = as_nonnegative(u, "u")
     sigma_f = _std(sigma_f, "sigma_f")
@@ -472,7 +509,8 @@ def tom_imm_model_set(T=1.0, u=70.0, sigma_f=1.0, sigma_s_centre=3.0, sigma_s_tu
     return tom_model_set([0.0, u, -u], [sc, st, st], sigma_f=sigma_f, T=T,
                          transition=transition, mu0=mu0, kind=kind, heading=heading,
                          labels=labels, reset_vs_variance=reset_vs_variance,
-                         rotate_covariance=rotate_covariance)
+                         rotate_covariance=rotate_covariance,
+                         reproject_velocity=reproject_velocity, vs_prior_var=vs_prior_var)
 
 
 def two_point_init(z0, z1, R, T=1.0):
@@ -512,10 +550,13 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
     ``heading_mode``: 0 chord of the last two combined positions, 1 the chord
     one scan older (eq. 8 indexed literally; the first scan extrapolates the
     initial chord back, so it uses ``phi0``), 2 direction of the last combined
-    velocity.  ``reset_var``: the reset also zeroes the ``v_s`` row and column of
-    each model's covariance; ``rotate_cov``: each model's covariance is turned
+    velocity, 3 and 4 the circular mean of the last 2 and 3 chords, 5 the
+    exponentially smoothed chord heading, 6 the heading-and-rate Kalman filter
+    (:data:`TOM_HEADINGS`).  ``reset_var``: below 0 the reset keeps the covariance; 0 zeroes the ``v_s``
+    row and column of each model's covariance; above 0 also sets the ``v_s`` variance to
+    it.  ``rotate_cov``: 1 or 2, each model's covariance is turned
     into the frame of the new heading (``blkdiag(I, Rot(phi - phi_prev))``)
-    before mixing.  ``log_lam = log(lambda)`` (``-inf`` without clutter),
+    before mixing (2: the velocity mean too, and ``v_s`` is not reset).  ``log_lam = log(lambda)`` (``-inf`` without clutter),
     ``gamma`` the gate threshold.  Outputs (preallocated): ``xs`` (K, 4),
     ``Ps`` (K, 4, 4), ``mus`` (K, r), ``zps`` (K, 2), ``Ss`` (K, 2, 2),
     ``gated`` (N,), ``headings`` (K,).  Returns -1, or the scan index at which
@@ -556,6 +597,13 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
     log_miss = math.log(miss) if miss > 0 else -np.inf
     p2x, p2y, p1x, p1y = prev2[0], prev2[1], prev1[0], prev1[1]
     p3x, p3y = 2.0 * p2x - p1x, 2.0 * p2y - p1y
+    p4x, p4y = 3.0 * p2x - 2.0 * p1x, 3.0 * p2y - 2.0 * p1y
+    # heading filters (modes 5, 6): smoothed heading; heading, rate and covariance
+    sm = phi0
+    hf, hw = phi0, 0.0
+    h00, h01, h11 = HEADING_KF_SIGMAS[0] ** 2, 0.0, HEADING_KF_SIGMAS[2] ** 2
+    hq = HEADING_KF_SIGMAS[1] ** 2
+    hr = HEADING_KF_SIGMAS[0] ** 2
     vcx, vcy = v0[0], v0[1]
     phi = phi0
     phi_frame = phi0  # the heading whose frame the model covariances are in
@@ -571,8 +619,40 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
                 phi = chord_heading_kernel(p2x, p2y, p1x, p1y, phi, 1e-6)
             elif heading_mode == 1:
                 phi = chord_heading_kernel(p3x, p3y, p2x, p2y, phi, 1e-6)
-            else:
+            elif heading_mode == 2:
                 phi = chord_heading_kernel(0.0, 0.0, vcx, vcy, phi, 1e-6)
+            else:
+                c1 = chord_heading_kernel(p2x, p2y, p1x, p1y, phi, 1e-6)
+                if heading_mode == 3 or heading_mode == 4:
+                    c2 = chord_heading_kernel(p3x, p3y, p2x, p2y, phi, 1e-6)
+                    cs = math.cos(c1) + math.cos(c2)
+                    sn = math.sin(c1) + math.sin(c2)
+                    if heading_mode == 4:
+                        c3 = chord_heading_kernel(p4x, p4y, p3x, p3y, phi, 1e-6)
+                        cs += math.cos(c3)
+                        sn += math.sin(c3)
+                    phi = math.atan2(sn, cs)
+                elif heading_mode == 5:
+                    dd = c1 - sm
+                    sm += SMOOTH_ALPHA * math.atan2(math.sin(dd), math.cos(dd))
+                    phi = sm
+                else:
+                    # predict heading and rate by one scan, update with the chord
+                    hf += T * hw
+                    t4 = hq * T * T
+                    h00 += 2.0 * T * h01 + T * T * h11 + t4 * T * T / 4.0
+                    h01 += T * h11 + t4 * T / 2.0
+                    h11 += t4
+                    dd = c1 - hf
+                    dd = math.atan2(math.sin(dd), math.cos(dd))
+                    sv = h00 + hr
+                    g0, g1 = h00 / sv, h01 / sv
+                    hf += g0 * dd
+                    hw += g1 * dd
+                    h11 -= g1 * h01
+                    h01 -= g0 * h01
+                    h00 -= g0 * h00
+                    phi = hf + T * hw  # the chord describes k - 3/2; predict k - 1/2
             for j in range(r):
                 tom_transition_kernel(phi, T, Fk[j])
                 tom_process_noise_kernel(phi, T, var_f[j], var_s[j], cwna, Qk[j])
@@ -598,6 +678,11 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
                         t3 = P[j, a, 3]
                         P[j, a, 2] = t2 * B2[0, 0] + t3 * B2[0, 1]
                         P[j, a, 3] = t2 * B2[1, 0] + t3 * B2[1, 1]
+                    if rotate_cov == 2:  # re-project the velocity mean too
+                        t2 = X[j, 2]
+                        t3 = X[j, 3]
+                        X[j, 2] = B2[0, 0] * t2 + B2[0, 1] * t3
+                        X[j, 3] = B2[1, 0] * t2 + B2[1, 1] * t3
             phi_frame = phi
         else:
             headings[k] = np.nan
@@ -717,17 +802,33 @@ def imm_pdaf_run_kernel(z, offsets, x0, P0, F, Q, H, R, Pi, mu0, tom, T, u, var_
             mus[k, j] = mu[j]
         # 8. TOM: remember the combined position, reset v_s
         if tom:
+            p4x, p4y = p3x, p3y
             p3x, p3y = p2x, p2y
             p2x, p2y = p1x, p1y
             p1x, p1y = xc[0], xc[1]
             vcx, vcy = xs[k, 2], xs[k, 3]
             for j in range(r):
-                X[j, 3] = 0.0
-                if reset_var:
+                if rotate_cov != 2:
+                    X[j, 3] = 0.0
+                if reset_var >= 0.0:
                     for a in range(n):
                         P[j, 3, a] = 0.0
                         P[j, a, 3] = 0.0
+                    P[j, 3, 3] = reset_var
     return -1
+
+
+def _reset_code(models):
+    """The kernel's ``reset_var``: -1 keeps the covariance at the reset, 0 zeroes the
+    ``v_s`` row and column, a positive value resets the ``v_s`` variance to it."""
+    if models.reset_vs_variance:
+        return 0.0
+    return models.vs_prior_var if models.vs_prior_var > 0 else -1.0
+
+
+def _rotate_code(models):
+    """The kernel's ``rotate_cov``: 0 none, 1 the covariance, 2 covariance and mean."""
+    return 2 if models.reproject_velocity else int(models.rotate_covariance)
 
 
 # ---------------------------------------------------------------------- public
@@ -786,7 +887,7 @@ def imm_pdaf_track_packed(models, z, offsets, x0, P0, R, *, pd=1.0, pg=0.99,
                               models.F, models.Q, models.H, R, models.transition, models.mu0,
                               models.tom, models.T, models.u, models.var_f, models.var_s,
                               models.cwna, TOM_HEADINGS.index(models.heading),
-                              models.reset_vs_variance, models.rotate_covariance,
+                              _reset_code(models), _rotate_code(models),
                               np.ascontiguousarray(prev2), x0[:2].copy(), x0[2:].copy(), phi0,
                               models.out_index, pd, pg, float(gamma),
                               math.log(lam) if lam > 0 else -math.inf,
