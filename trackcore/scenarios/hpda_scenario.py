@@ -36,7 +36,7 @@ from ..core.validation import (as_array, as_count, as_int, as_nonnegative, as_po
 from ..detection.amplitude import exponential_amplitude_threshold
 from ..metrics import gospa_kernel
 from ..models.motion import coordinated_turn_transition, cv_transition
-from ..stats import Estimate, bootstrap_ci
+from ..stats import MIN_RUNS, Estimate, bootstrap_ci
 from ..trackers.clustering_hybrid import CHI2_2_99, ClusteringConfig, clustering_run
 from ..trackers.hpda_pf import HpdaPfConfig, TrackerRun, _finite, _integer, hpda_pf_run
 from ..trackers.smc_phd import SmcPhdConfig, smc_phd_run
@@ -556,7 +556,10 @@ def count_error_ci(counts, n_true, *, versus=None, paired=True, kind="e", early=
     (another algorithm's counts) gives the interval of the difference
     ``stat(counts) - stat(versus)``: paired (same runs, resampled together, equal
     shapes) or, with ``paired=False``, independent samples (e.g. two environments).
-    The runs are resampled and ``Nbar`` recomputed for every resample.
+    The runs are resampled and ``Nbar`` recomputed for every resample. Like the other
+    interval functions of :mod:`trackcore.stats`, it needs at least
+    :data:`~trackcore.stats.MIN_RUNS` runs in ``counts`` and in ``versus`` (ValueError
+    below).
     """
     if kind not in ("e", "s"):
         raise ValueError(f"kind must be 'e' or 's', got {kind!r}")
@@ -573,9 +576,12 @@ def count_error_ci(counts, n_true, *, versus=None, paired=True, kind="e", early=
             raise ValueError(f"versus must have shape {C.shape if paired else ('n', K)}, "
                              f"got {V.shape}")
         D.append((V - N)[:, :k1])
-    for Dm in D:
-        if Dm.shape[0] < 2:
-            raise ValueError("counts and versus need at least 2 runs")
+    for Dm, name in zip(D, ("counts", "versus")):
+        if Dm.shape[0] < MIN_RUNS:
+            raise ValueError(
+                f"{name} has {Dm.shape[0]} runs; count_error_ci needs at least {MIN_RUNS} "
+                "(trackcore.stats.MIN_RUNS: with fewer, bootstrap intervals of means of "
+                "non-0/1 values fall short of 93 % coverage); use more runs")
 
     def one(idx, Dm):
         ii = idx.astype(np.int64)
