@@ -1906,7 +1906,7 @@ def failure_comparison():
 @example()
 def count_error_ci():
     r = np.random.default_rng(5)
-    c = r.integers(0, 4, (6, 8)).astype(float)
+    c = r.integers(0, 4, (40, 8)).astype(float)  # MIN_RUNS runs
     return call(c, np.full(8, 2.0), versus=c + r.normal(0, 0.5, c.shape), paired=True,
                 kind="e", early=None, seed=0)
 

@@ -217,14 +217,29 @@ def test_count_error_intervals():
     eb = count_error_ci(b, n_true)
     assert diff.value == pytest.approx(ea.value - eb.value) and diff.hi < 0
     assert count_error_ci(a, n_true, seed=0) == ea
-    un = count_error_ci(a, n_true, versus=b[:30], paired=False)
-    assert un.value == pytest.approx(ea.value - count_error_ci(b[:30], n_true).value)
+    un = count_error_ci(a, n_true, versus=b[:40], paired=False)
+    assert un.value == pytest.approx(ea.value - count_error_ci(b[:40], n_true).value)
     early = count_error_ci(b, n_true, kind="s", early=20)
     assert early.value == pytest.approx((b.mean(axis=0) - n_true)[:20].mean())
     with pytest.raises(ValueError, match="kind"):
         count_error_ci(a, n_true, kind="rmse")
     with pytest.raises(ValueError, match="versus"):
         count_error_ci(a, n_true, versus=b[:10])
+
+
+def test_count_error_ci_needs_min_runs():
+    """Like every interval of trackcore.stats: MIN_RUNS runs per sample at least."""
+    from trackcore.scenarios import count_error_ci
+    from trackcore.stats import MIN_RUNS
+    n_true = np.ones(5)
+    c = np.random.default_rng(1).integers(0, 3, (MIN_RUNS, 5)).astype(float)
+    assert count_error_ci(c, n_true).n == MIN_RUNS
+    with pytest.raises(ValueError, match=f"counts has {MIN_RUNS - 1} runs.*at least {MIN_RUNS}"):
+        count_error_ci(c[:-1], n_true)
+    with pytest.raises(ValueError, match=f"versus has {MIN_RUNS - 1} runs"):
+        count_error_ci(c, n_true, versus=c[:-1], paired=False)
+    with pytest.raises(ValueError, match=f"counts has {MIN_RUNS - 1} runs"):
+        count_error_ci(c[:-1], n_true, versus=c[:-1])
 
 
 def test_trial_metrics_and_diagnostics():

@@ -13,8 +13,11 @@ seeds of the chapter's Monte Carlo comparison (case ``c``: ``HPDA_SEED + c``), s
 * ``hpda-ext-snr-linear`` / ``-db``: case 2's HPDA-PF with SNR 5 read as linear and
   as 5 dB (:class:`~trackcore.experiments.HpdaMonteCarloConfig`).
 
-A row holds the estimated count per scan (int16) of every tracker and variant: the
-only per-run quantity the page's tables and verdicts use.
+A row holds the estimated count per scan (int16) of every tracker and variant and, in
+the prior sweep, SMC-PHD's sum of the particle weights per variant and scan (float32,
+the ``sum`` reading of its count): the only per-run quantities the page's tables and
+verdicts use. Every experiment runs 100 runs (version 2; version 1 stored 20 or 30, too
+few for an interval); run ``i`` is the same in both versions.
 """
 
 from __future__ import annotations
@@ -149,11 +152,17 @@ def _variants_call(config):
 
 
 def _variants_extract(outs, config):
-    """Per tracker: the count per variant and scan, ``(variants, scans)`` int16."""
-    return {
+    """Per tracker: the count per variant and scan, ``(variants, scans)`` int16; for
+    SMC-PHD also its sum of weights per variant and scan (float32)."""
+    row = {
         f"{a}.count": np.stack([_int16(o[a]["count"], a) for o in outs])
         for a in config.algorithms
     }
+    if "phd" in config.algorithms:
+        row["phd.sum_w"] = np.stack(
+            [np.asarray(o["phd"]["aux"], dtype=np.float32) for o in outs]
+        )
+    return row
 
 
 def _counts_call(config):
@@ -168,10 +177,10 @@ def _counts_extract(out, config):
 
 
 for _kind, _cls, _runs, _what in (
-    ("prior", HpdaPriorSweepConfig, 30,
+    ("prior", HpdaPriorSweepConfig, 100,
      "the death prior: HPDA's Pi_11 and SMC-PHD's P_S swept together over 0.98, 0.99, "
      "0.995"),
-    ("ladder", HpdaLadderConfig, 20,
+    ("ladder", HpdaLadderConfig, 100,
      "the clustering hybrid one change at a time: the printed reading and four steps to "
      "the strong one"),
 ):
@@ -186,7 +195,7 @@ for _kind, _cls, _runs, _what in (
                 config=_cls(_case),
                 seed=HPDA_SEED + _case,
                 runs=_runs,
-                version="1",
+                version="2",
                 notebook=_NB,
             )
         )
@@ -204,8 +213,8 @@ for _name, _what, _over in (
             extract=_counts_extract,
             config=HpdaMonteCarloConfig(1, ("hpda", "phd", "clustering"), **_over),
             seed=HPDA_SEED + 1,
-            runs=30,
-            version="1",
+            runs=100,
+            version="2",
             notebook=_NB,
         )
     )
@@ -223,8 +232,8 @@ for _name, _what, _snr in (
             extract=_counts_extract,
             config=HpdaMonteCarloConfig(2, ("hpda",), snr=_snr),
             seed=HPDA_SEED + 2,
-            runs=20,
-            version="1",
+            runs=100,
+            version="2",
             notebook=_NB,
         )
     )

@@ -561,9 +561,13 @@ def count_error_ci(counts, n_true, *, versus=None, paired=True, kind="e", early=
     ``kind="e-bc"`` is ``e`` corrected for its run-to-run noise bias by the jackknife over
     runs, ``R e - (R - 1)`` times the mean of the ``R`` leave-one-run-out values of ``e``;
     the correction is recomputed in every resample, so the interval is that of the
-    corrected statistic itself.  It needs at least ``MIN_RUNS`` runs per sample, and a
-    ValueError is raised rather than an interval widened to contain the estimate (when
-    the estimate falls outside the central 95 % of its own bootstrap distribution).
+    corrected statistic itself.  A ValueError is raised rather than an interval widened
+    to contain the estimate (when the estimate falls outside the central 95 % of its own
+    bootstrap distribution).
+
+    Like the other interval functions of :mod:`trackcore.stats`, it needs at least
+    :data:`~trackcore.stats.MIN_RUNS` runs in ``counts`` and in ``versus`` (ValueError
+    below), for every ``kind``.
     """
     if kind not in ("e", "s", "e-bc"):
         raise ValueError(f"kind must be 'e', 's' or 'e-bc', got {kind!r}")
@@ -580,12 +584,12 @@ def count_error_ci(counts, n_true, *, versus=None, paired=True, kind="e", early=
             raise ValueError(f"versus must have shape {C.shape if paired else ('n', K)}, "
                              f"got {V.shape}")
         D.append((V - N)[:, :k1])
-    for Dm in D:
-        if Dm.shape[0] < 2:
-            raise ValueError("counts and versus need at least 2 runs")
-        if kind == "e-bc" and Dm.shape[0] < MIN_RUNS:
-            raise ValueError(f"kind='e-bc' needs at least {MIN_RUNS} runs per sample, "
-                             f"got {Dm.shape[0]}")
+    for Dm, name in zip(D, ("counts", "versus")):
+        if Dm.shape[0] < MIN_RUNS:
+            raise ValueError(
+                f"{name} has {Dm.shape[0]} runs; count_error_ci needs at least {MIN_RUNS} "
+                "(trackcore.stats.MIN_RUNS: with fewer, bootstrap intervals of means of "
+                "non-0/1 values fall short of 93 % coverage); use more runs")
 
     def one(idx, Dm):
         ii = idx.astype(np.int64)
