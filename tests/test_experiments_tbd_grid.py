@@ -22,7 +22,7 @@ from trackcore.trackers import TbdTrackerConfig, tbd_run_outcomes
 def test_the_grid_is_registered_with_the_declared_counts():
     want = {f"tbd-grid-{s}-{r}" for s in SCENARIOS for r in ("25", "10")}
     assert want <= set(names()), sorted(want - set(names()))
-    assert get("tbd-grid-base-25").runs == 500, "pooled with main-25's 1000 to 1500"
+    assert get("tbd-grid-base-25").runs == 1000, "pooled with main-25's 1000 to 2000"
     assert get("tbd-grid-base-10").runs == 500, "pooled with main-10's 500 to 1000"
     for r in ("25", "10"):
         for s in ("clut4", "snr6", "snr6-clut4"):
@@ -30,6 +30,21 @@ def test_the_grid_is_registered_with_the_declared_counts():
             assert get(f"tbd-grid-calibration-{s}-{r}").runs == 200
     assert get("tbd-grid-strong-25").runs == 500
     assert all(get(n).seed == GRID_SEED for n in want), "one fresh seed for the grid"
+    for n in want:
+        bl = get(n.replace("tbd-grid-", "tbd-grid-baselines-"))
+        assert (bl.runs, bl.seed) == (get(n).runs, GRID_SEED), f"{n}: baselines on its runs"
+
+
+def test_the_baselines_share_the_cells_scene():
+    """Runs 0..1 of the stronger baselines at 1 km, +3 dB: the cell's start, B gated
+    with B's particle stream (gate = inf would give B), the SNR rule within its bounds."""
+    res = run_experiment("tbd-grid-baselines-snr6-10", runs=2, write=False, progress=False)
+    cell = run_experiment("tbd-grid-snr6-10", runs=2, write=False, progress=False)
+    assert np.array_equal(res["x0"], cell["x0"]), "the baselines do not start as the cell"
+    assert res["m100"].shape == (2, 3), "one column per stronger baseline"
+    assert np.all(np.isfinite(res["m100"])), "finite errors"
+    with pytest.raises(ValueError, match="tracker key"):
+        TbdGridConfig(trackers=("Bx",))
 
 
 def test_the_scenario_follows_snr0_db():
