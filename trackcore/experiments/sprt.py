@@ -239,3 +239,42 @@ for _n in (2, 3):
         trial=_cells_trial, call=_cells_call, extract=_cells_extract,
         config=SprtCellsConfig(_n, tuple(family_cell(_n, a, lead) for a, lead in FAMILY_S23)),
         seed=SEED + _n, runs=1000, version="1", notebook=_NB06))
+
+
+#: The cause factorial of S2/S3 (issue 27, declared before its runs): target filter x
+#: prior of eq (28) x sign constraint of 1/r x geometry (G-B and the declared family).
+CAUSE_GEOMETRIES = ((7.5, -15.0),) + FAMILY_S23
+CAUSE_MODELS = ("cv", "boost")
+CAUSE_PRIORS = (2.0, 0.2)
+#: the sign constraint: the decoy filters' 1/r kept >= 1/(20 km), 20 times the range at
+#: the release (None: free, the paper)
+CAUSE_BETA_MIN = 1.0 / 20000.0
+CAUSE_SIGNS = (None, CAUSE_BETA_MIN)
+
+
+def cause_cell(scenario, alpha, lead, model, prior, beta_min):
+    """The cell of the cause factorial: the family cell at (``alpha``, ``lead``) with
+    target filter ``model``, prior factor ``prior`` of eq (28) and sign constraint
+    ``beta_min`` (None: free)."""
+    filt = dict(target_model=model, beta_std_factor=float(prior))
+    if beta_min is not None:
+        filt["beta_min"] = float(beta_min)
+    return family_cell(scenario, alpha, lead) + ";" + cell_of(**filt)
+
+
+def cause_cells(scenario):
+    """Every cell of the cause factorial of ``scenario`` (2 or 3), geometry slowest, then
+    target filter, prior and sign."""
+    return tuple(cause_cell(scenario, a, lead, m, f, b) for a, lead in CAUSE_GEOMETRIES
+                 for m in CAUSE_MODELS for f in CAUSE_PRIORS for b in CAUSE_SIGNS)
+
+
+for _n in (2, 3):
+    register(Experiment(
+        name=f"sprt-cause-s{_n}",
+        description=(f"SPRT chapter, the cause factorial of S{_n}: target filter (CV, "
+                     "boost) x prior of 1/r (200 %, 20 %) x sign of 1/r (free, >= "
+                     "1/20 km) x the 7 declared geometries, on the same runs"),
+        trial=_cells_trial, call=_cells_call, extract=_cells_extract,
+        config=SprtCellsConfig(_n, cause_cells(_n)),
+        seed=SEED + 3000 + _n, runs=2000, version="1", notebook=_NB06))
