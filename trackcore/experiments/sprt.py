@@ -277,4 +277,4 @@ for _n in (2, 3):
                      "1/20 km) x the 7 declared geometries, on the same runs"),
         trial=_cells_trial, call=_cells_call, extract=_cells_extract,
         config=SprtCellsConfig(_n, cause_cells(_n)),
-        seed=SEED + 3000 + _n, runs=2000, version="1", notebook=_NB06))
+        seed=SEED + 3000 + _n, runs=5000, version="1", notebook=_NB06))
