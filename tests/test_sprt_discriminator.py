@@ -108,8 +108,10 @@ def reference(z, truth, T, cfg):
                 f = cfg.beta_std_factor
                 if col == 2 and cfg.beta_std_factor_a1 is not None:   # a1's own prior
                     f = cfg.beta_std_factor_a1
-                acm[col] = (np.array([zz[1], 1 / zz[0]]),
-                            np.diag([cfg.sigma_theta**2, (f / zz[0])**2]))
+                x0 = np.array([zz[1], 1 / zz[0]])
+                if cfg.beta_min is not None:   # the sign constraint: truncate 1/r
+                    x0[1] = max(x0[1], cfg.beta_min)
+                acm[col] = (x0, np.diag([cfg.sigma_theta**2, (f / zz[0])**2]))
                 continue
             x, P = acm[col]
             ub = own[j, :2] - own[j - 1, :2]
@@ -117,7 +119,10 @@ def reference(z, truth, T, cfg):
             Pp2 = F @ P @ F.T + modified_polar_Q(x, T, cfg.sigma_p)
             xp2 = modified_polar_f(x, ub)
             up = ekf_update(xp2, Pp2, zz[1:2], xp2[:1], np.array([[1.0, 0.0]]), Rb, angle_index=0)
-            acm[col] = (up.x, up.P)
+            xu = up.x.copy()
+            if cfg.beta_min is not None:
+                xu[1] = max(xu[1], cfg.beta_min)
+            acm[col] = (xu, up.P)
             acc[col] += up.loglik + 0.5 * math.log(2 * math.pi)
             nis[k, col] = up.nis
         lam[k] = acc
@@ -134,7 +139,9 @@ def reference(z, truth, T, cfg):
                                      dict(target_model="imm", mu_release=0.0,
                                           p_stay_cv=0.8, p_stay_manoeuvre=0.6),
                                      dict(beta_std_factor_a1=0.2),
-                                     dict(beta_std_factor=0.2, beta_std_factor_a1=3.0)])
+                                     dict(beta_std_factor=0.2, beta_std_factor_a1=3.0),
+                                     dict(beta_min=1 / 20000.0),
+                                     dict(beta_min=1 / 500.0, target_model="boost")])
 def test_matches_foundation_route(run_data, changes):
     sc, truth, z = run_data
     cfg = SprtAcmFilterConfig(**changes)

@@ -19,7 +19,9 @@ Registered (the book's seeds and run counts, 06-sensitivity):
 * ``sprt-t10-s2``, ``sprt-t10-s3``: the turn-tolerant target filters (boost, IMM,
   IMM with the release cue, IMM 50/50) with the 20 % prior, 5000 runs each;
 * ``sprt-t10-boost-rep-s2``, ``sprt-t10-boost-rep-s3``: the boost's replication on
-  5000 runs of other seeds.
+  5000 runs of other seeds;
+* ``sprt-boost-robust-s2``, ``sprt-boost-robust-s3``: the boost's window and acceleration
+  (3 x 3 cells, 20 % prior) on the 1000 runs of S2's / S3's seed.
 
 and the chapter's declared geometry family (index, "Readings"; issue 27):
 
@@ -27,7 +29,10 @@ and the chapter's declared geometry family (index, "Readings"; issue 27):
   S1's verdicts (seed + 500);
 * ``sprt-s2-family``, ``sprt-s3-family``: S2 / S3 in the cells other than G-B (7.5/-15),
   on the 1000 runs of their verdicts (seed + 2, seed + 3); S3's two cells with lead +15
-  end at t = 80 s (the target passes within 8 sigma_r of the pursuer after that).
+  end at t = 80 s (the target passes within 8 sigma_r of the pursuer after that);
+* ``sprt-cause-s2``, ``sprt-cause-s3``: the cause factorial (target filter CV / boost x
+  prior 200 % / 20 % x 1/r free / >= 1/20 km x the 7 declared S2/S3 geometries), 5000
+  runs of their own seeds (seed + 3000 + n).
 """
 from __future__ import annotations
 
@@ -208,6 +213,29 @@ for _n in (2, 3):
         seed=SEED + 2000 + _n, runs=5000, version="1", notebook=_NB06))
 
 
+#: 06-sensitivity, the boost's robustness: its window after the release (s) and the
+#: acceleration its noise covers (m/s^2), with the 20 % prior.
+BOOST_TIMES = (1.0, 2.0, 4.0)
+BOOST_ACCELS = (5.0, 10.0, 20.0)
+
+
+def boost_cell(boost_time, accel):
+    """The cell of the boost with window ``boost_time`` and acceleration ``accel`` and the
+    20 % prior of 1/r."""
+    return cell_of(beta_std_factor=0.2, target_model="boost", boost_time=float(boost_time),
+                   manoeuvre_accel=float(accel))
+
+
+for _n in (2, 3):
+    register(Experiment(
+        name=f"sprt-boost-robust-s{_n}",
+        description=(f"SPRT chapter, the boost's robustness in S{_n}: windows 1, 2, 4 s x "
+                     "accelerations 5, 10, 20 m/s^2, 20 % prior, on the verdict runs"),
+        trial=_cells_trial, call=_cells_call, extract=_cells_extract,
+        config=SprtCellsConfig(_n, tuple(boost_cell(bt, acc) for bt in BOOST_TIMES
+                                         for acc in BOOST_ACCELS)),
+        seed=SEED + _n, runs=1000, version="1", notebook=_NB06))
+
 #: The declared geometry family (target course, pursuer lead; deg) besides the defaults:
 #: S1's cells other than G-A (45, 0); S2's and S3's add G-A to them (G-B is their default).
 FAMILY_S1 = ((33.8, 0.0), (33.8, -15.0), (33.8, 15.0), (45.0, -15.0), (45.0, 15.0))
@@ -239,3 +267,42 @@ for _n in (2, 3):
         trial=_cells_trial, call=_cells_call, extract=_cells_extract,
         config=SprtCellsConfig(_n, tuple(family_cell(_n, a, lead) for a, lead in FAMILY_S23)),
         seed=SEED + _n, runs=1000, version="1", notebook=_NB06))
+
+
+#: The cause factorial of S2/S3 (issue 27, declared before its runs): target filter x
+#: prior of eq (28) x sign constraint of 1/r x geometry (G-B and the declared family).
+CAUSE_GEOMETRIES = ((7.5, -15.0),) + FAMILY_S23
+CAUSE_MODELS = ("cv", "boost")
+CAUSE_PRIORS = (2.0, 0.2)
+#: the sign constraint: the decoy filters' 1/r kept >= 1/(20 km), 20 times the range at
+#: the release (None: free, the paper)
+CAUSE_BETA_MIN = 1.0 / 20000.0
+CAUSE_SIGNS = (None, CAUSE_BETA_MIN)
+
+
+def cause_cell(scenario, alpha, lead, model, prior, beta_min):
+    """The cell of the cause factorial: the family cell at (``alpha``, ``lead``) with
+    target filter ``model``, prior factor ``prior`` of eq (28) and sign constraint
+    ``beta_min`` (None: free)."""
+    filt = dict(target_model=model, beta_std_factor=float(prior))
+    if beta_min is not None:
+        filt["beta_min"] = float(beta_min)
+    return family_cell(scenario, alpha, lead) + ";" + cell_of(**filt)
+
+
+def cause_cells(scenario):
+    """Every cell of the cause factorial of ``scenario`` (2 or 3), geometry slowest, then
+    target filter, prior and sign."""
+    return tuple(cause_cell(scenario, a, lead, m, f, b) for a, lead in CAUSE_GEOMETRIES
+                 for m in CAUSE_MODELS for f in CAUSE_PRIORS for b in CAUSE_SIGNS)
+
+
+for _n in (2, 3):
+    register(Experiment(
+        name=f"sprt-cause-s{_n}",
+        description=(f"SPRT chapter, the cause factorial of S{_n}: target filter (CV, "
+                     "boost) x prior of 1/r (200 %, 20 %) x sign of 1/r (free, >= "
+                     "1/20 km) x the 7 declared geometries, on the same runs"),
+        trial=_cells_trial, call=_cells_call, extract=_cells_extract,
+        config=SprtCellsConfig(_n, cause_cells(_n)),
+        seed=SEED + 3000 + _n, runs=5000, version="1", notebook=_NB06))

@@ -33,3 +33,67 @@ def central_jacobian(f, x, steps) -> np.ndarray:
         e[j] = h
         cols.append((np.asarray(f(x + e)) - np.asarray(f(x - e))) / (2 * h))
     return np.stack(cols, axis=-1)
+
+
+def cause_column(geometry, model, prior, sign, geometries, models, priors, signs):
+    """Column of the cell (``geometry``, ``model``, ``prior``, ``sign``) in a cause
+    factorial whose cells run geometry slowest, then target filter, prior and sign (the
+    order of :func:`trackcore.experiments.sprt.cause_cells`)."""
+    levels = (geometries, models, priors, signs)
+    j = 0
+    for value, axis in zip((geometry, model, prior, sign), levels):
+        axis = list(axis)
+        if value not in axis:
+            raise ValueError(f"{value!r} is not a level of the factorial: {axis}")
+        j = j * len(axis) + axis.index(value)
+    return j
+
+
+def paired_effect(d, k, base, changed, min_runs=None):
+    """Paired effects of changing cell ``base`` to cell ``changed`` on the same runs:
+    ``{"dsucc": Estimate of the success-rate difference (fractions, changed minus base),
+    "dscan": Estimate of the decision-scan difference over the runs that succeed in both
+    cells, or None with fewer than min_runs such runs (default trackcore.stats.MIN_RUNS)
+    or too few differing runs for an interval, "both": their number, "why": the reason
+    for a missing interval}``. ``d`` and ``k`` are (runs, cells) arrays of decisions (0:
+    right) and decision scans."""
+    from ..stats import MIN_RUNS, paired_diff_ci
+
+    d, k = np.asarray(d), np.asarray(k)
+    if d.ndim != 2 or d.shape != k.shape:
+        raise ValueError(f"d and k must be 2-D arrays of one shape, got {d.shape}, {k.shape}")
+    ok = d == 0
+    dsucc = paired_diff_ci(ok[:, changed].astype(float), ok[:, base].astype(float))
+    both = ok[:, changed] & ok[:, base]
+    min_runs = MIN_RUNS if min_runs is None else min_runs
+    dscan, why = None, f"{int(both.sum())} runs succeed in both"
+    if both.sum() >= min_runs:
+        try:
+            dscan = paired_diff_ci(k[both, changed].astype(float),
+                                   k[both, base].astype(float))
+        except ValueError:   # too few runs whose scans differ for a studentized interval
+            why = f"{int((k[both, changed] != k[both, base]).sum())} runs differ"
+    return {"dsucc": dsucc, "dscan": dscan, "both": int(both.sum()), "why": why}
+
+
+def effect_verdict(est, margin, helpful):
+    """The verdict of a paired effect ``est`` (an Estimate or None) as the registry's
+    direction rule with an equivalence margin decides it: ``"helps"`` when the whole
+    interval lies on the ``helpful`` side of 0 (``"above"`` or ``"below"``), ``"hurts"``
+    when it lies wholly on the other side, ``"none"`` when it lies inside ``[-margin,
+    margin]`` (a demonstrated equivalence), else ``"undecided"`` (also without an
+    interval)."""
+    if helpful not in ("above", "below"):
+        raise ValueError(f"helpful must be 'above' or 'below', got {helpful!r}")
+    if not margin > 0:
+        raise ValueError(f"margin must be > 0, got {margin!r}")
+    if est is None:
+        return "undecided"
+    lo, hi = (est.lo, est.hi) if helpful == "above" else (-est.hi, -est.lo)
+    if lo > 0:
+        return "helps"
+    if hi < 0:
+        return "hurts"
+    if -margin <= lo and hi <= margin:
+        return "none"
+    return "undecided"

@@ -37,6 +37,13 @@ or one of two manoeuvre-tolerant alternatives that the paper does not use:
   manoeuvre mode for the predictions that start within ``boost_time`` seconds
   after the release (the moment a target that drops a decoy is likely to turn).
 
+The ACM filters' inverse range ``beta = 1/r`` is free in the paper and may turn
+negative (a point behind the pursuer).  ``beta_min`` (not in the paper) keeps it
+at least ``beta_min`` by truncation: after the initialisation and after every
+update, an estimate ``beta < beta_min`` is set to ``beta_min`` (the projection of
+the mean onto the constraint in the inverse-range coordinate; the bearing and the
+covariance are left as the update made them).
+
 The EKFs are built from the foundation's Kalman and IMM kernels
 (``trackcore.filters.kalman``, ``trackcore.filters.imm``) and the measurement
 and transition models; a whole Monte Carlo batch runs in one numba kernel.
@@ -114,6 +121,11 @@ class SprtAcmFilterConfig:
     p_stay_cv, p_stay_manoeuvre : float
         IMM only: probabilities of staying in each mode from one scan to the
         next.
+    beta_min : float or None
+        Sign constraint of the ACM filters (not in the paper): their inverse-range
+        estimate is truncated at ``beta_min`` (1/m, > 0) after the initialisation
+        and after every update (the bearing and the covariance unchanged);
+        ``None`` (default, the paper) leaves it free.
     mu_release : float or None
         IMM only: probability of the manoeuvre mode at the release, in [0, 1];
         ``None`` (default) starts from the chain's stationary mode probabilities.
@@ -135,6 +147,7 @@ class SprtAcmFilterConfig:
     boost_time: float = 2.0
     beta_std_factor_a1: float | None = None
     mu_release: float | None = None
+    beta_min: float | None = None
 
     def __post_init__(self):
         for name in ("sigma_r", "sigma_theta", "sigma_rdot", "beta_std_factor",
@@ -148,6 +161,8 @@ class SprtAcmFilterConfig:
                 raise ValueError(f"{name} must lie in (0, 1), got {v}")
         if self.beta_std_factor_a1 is not None:
             _check_real(self, "beta_std_factor_a1", positive=True)
+        if self.beta_min is not None:
+            _check_real(self, "beta_min", positive=True)
         if self.mu_release is not None:
             v = _check_real(self, "mu_release", positive=False)
             if not v <= 1.0:
@@ -286,13 +301,14 @@ def _target_predict(x, P, Phi, Qa, own_prev, own_cur, T, x_out, P_out):
 
 @nb.njit(cache=True)
 def _run_one(z_pre, z_a, z_b, own, T, Phi, Qa, Qs, PI, mu0, Qb, n_boost, Ra, Rb, P0, qT,
-             beta_factors, sigma_theta, lam, nis, beta, mu_out):
+             beta_factors, sigma_theta, beta_min, lam, nis, beta, mu_out):
     """One Monte Carlo run; fills lam (K,4), nis (K,4), beta (K,2), mu_out (K,2); returns ok.
 
     ``Qs`` (r, 4, 4), ``PI`` (r, r) and ``mu0`` (r,) describe the target filters
     after the release: ``r = 1`` is the CV EKF, whose first ``n_boost``
     post-release predictions use ``Qb`` instead of ``Qs[0]``; ``r = 2`` the IMM.
-    ``beta_factors`` (2,) are the prior factors of eq (28) for ``b0`` and ``a1``.
+    ``beta_factors`` (2,) are the prior factors of eq (28) for ``b0`` and ``a1``;
+    ``beta_min`` truncates their inverse range from below (``-inf``: free).
     """
     n_pre = z_pre.shape[0]
     K = z_a.shape[0]
@@ -398,6 +414,8 @@ def _run_one(z_pre, z_a, z_b, own, T, Phi, Qa, Qs, PI, mu0, Qb, n_boost, Ra, Rb,
                     return False
                 acc[col] += ll + half_log2pi
                 nis[k, col] = v
+            if xm[s, 1] < beta_min:     # the sign constraint (truncation of 1/r)
+                xm[s, 1] = beta_min
             beta[k, s] = xm[s, 1]
         for c in range(4):
             lam[k, c] = acc[c]
@@ -406,8 +424,8 @@ def _run_one(z_pre, z_a, z_b, own, T, Phi, Qa, Qs, PI, mu0, Qb, n_boost, Ra, Rb,
 
 @nb.njit(cache=True)
 def sprt_acm_discriminate_kernel(z_pre, z_a, z_b, own, T, Phi, Qa, Qs, PI, mu0, Qb, n_boost,
-                                 Ra, Rb, P0, qT, beta_factors, sigma_theta, lam, nis, beta,
-                                 mu, ok):
+                                 Ra, Rb, P0, qT, beta_factors, sigma_theta, beta_min, lam,
+                                 nis, beta, mu, ok):
     """Batch kernel: ``z_pre`` (N, n_pre, 3), ``z_a``/``z_b`` (N, K, 3), ``own`` (n_pre+K, 4).
 
     Outputs ``lam``/``nis`` (N, K, 4), ``beta``/``mu`` (N, K, 2), ``ok`` (N,) bool.
@@ -415,14 +433,15 @@ def sprt_acm_discriminate_kernel(z_pre, z_a, z_b, own, T, Phi, Qa, Qs, PI, mu0, 
     filters' modes after it ``Qs`` (r, 4, 4) with ``PI`` (r, r) and ``mu0`` (r,),
     the boosted ``Qb`` (4, 4) of the first ``n_boost`` post-release predictions,
     ``Ra`` (3, 3), ``Rb`` (1, 1), target prior ``P0`` (4, 4), ``qT = sigma_p^2 T``,
-    ACM prior factors ``beta_factors`` (2,) of ``b0`` and ``a1`` and ``sigma_theta``.
+    ACM prior factors ``beta_factors`` (2,) of ``b0`` and ``a1``, ``sigma_theta`` and the
+    lower bound ``beta_min`` of their inverse range (``-inf``: free).
     Assumes valid input
     (checked by :func:`sprt_acm_discriminate`).
     """
     for n in range(z_a.shape[0]):
         ok[n] = _run_one(z_pre[n], z_a[n], z_b[n], own, T, Phi, Qa, Qs, PI, mu0, Qb, n_boost,
-                         Ra, Rb, P0, qT, beta_factors, sigma_theta, lam[n], nis[n], beta[n],
-                         mu[n])
+                         Ra, Rb, P0, qT, beta_factors, sigma_theta, beta_min, lam[n], nis[n],
+                         beta[n], mu[n])
 
 
 def sprt_acm_llr(lam):
@@ -530,9 +549,10 @@ def sprt_acm_discriminate(z_pre, z_a, z_b, own_states, T, config=None):
     ok = np.empty(N, dtype=np.bool_)
     f_a1 = cfg.beta_std_factor if cfg.beta_std_factor_a1 is None else cfg.beta_std_factor_a1
     beta_factors = np.array([cfg.beta_std_factor, f_a1], dtype=float)
+    beta_min = -math.inf if cfg.beta_min is None else float(cfg.beta_min)
     sprt_acm_discriminate_kernel(zp, za, zb, own, T, Phi, Qa, Qs, PI, mu0, Qb, n_boost, Ra, Rb,
                                  P0, cfg.sigma_p ** 2 * T, beta_factors,
-                                 float(cfg.sigma_theta), lam, nis, beta, mu, ok)
+                                 float(cfg.sigma_theta), beta_min, lam, nis, beta, mu, ok)
     bad = ok & ~np.all(np.isfinite(lam), axis=(1, 2))
     if np.any(bad):
         raise ValueError(f"run {int(np.argmax(bad))}: the filters overflowed; the "
