@@ -196,7 +196,7 @@ def browser(width: int = 1400):
                                  f"--user-data-dir={profile}", "about:blank"],
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         try:
-            for _ in range(100):
+            for _ in range(300):  # 30 s: Chromium starts slowly on a loaded machine
                 try:
                     tabs = json.load(urllib.request.urlopen(f"http://127.0.0.1:{port}/json"))
                     break

@@ -1224,6 +1224,30 @@ def run_tbd_tracker():
     return call(s, truth.states[0], TBD_INITIAL_COVARIANCE, rng(), C(method="C", n_particles=50))
 
 
+@example()
+def run_tbd_gated_b():
+    from trackcore.scenarios import TBD_INITIAL_COVARIANCE
+    from trackcore.trackers import TbdTrackerConfig as C
+    _, truth, s = tbd_data()
+    return call(s, truth.states[0], TBD_INITIAL_COVARIANCE, rng(), C(method="B", n_particles=50))
+
+
+@example()
+def run_tbd_snr_ekf():
+    from trackcore.scenarios import TBD_INITIAL_COVARIANCE
+    from trackcore.trackers import TbdTrackerConfig as C
+    _, truth, s = tbd_data()
+    return call(s, truth.states[0], TBD_INITIAL_COVARIANCE, C(method="A"))
+
+
+@example()
+def run_tbd_imm():
+    from trackcore.scenarios import TBD_INITIAL_COVARIANCE
+    from trackcore.trackers import TbdTrackerConfig as C
+    _, truth, s = tbd_data()
+    return call(s, truth.states[0], TBD_INITIAL_COVARIANCE, C(method="A"))
+
+
 def _tbd_particles():
     r = np.random.default_rng(7)
     return np.array([30e3, 10e3, 5e3, -150.0, 50.0, 0.0]) + r.normal(0, 100, (20, 6))

@@ -71,7 +71,7 @@ def test_count_error_ci_e_bc_interval():
 def test_count_error_ci_e_bc_refuses_few_runs_and_bad_kind():
     n_true = np.ones(5)
     few = np.ones((MIN_RUNS - 1, 5))
-    with pytest.raises(ValueError, match="e-bc"):
+    with pytest.raises(ValueError, match="count_error_ci needs at least 40"):
         count_error_ci(few, n_true, kind="e-bc")
     with pytest.raises(ValueError, match="kind"):
         count_error_ci(np.ones((MIN_RUNS, 5)), n_true, kind="ebc")

@@ -135,3 +135,20 @@ def test_labelled_and_gospa_parts():
     met = {"x": {"gospa_localisation": np.array([1000.0, 3000.0]),
                  "gospa_missed": np.zeros(2), "gospa_false": np.full(2, 500.0)}}
     assert hb.gospa_parts(met, ["x"]).tolist() == [[2.0, 0.0, 0.5]]
+
+
+def test_interval_text_formats_or_says_there_is_none():
+    from trackcore.scenarios._hpda_book import NO_INTERVAL, interval_text
+    from trackcore.stats import mean_ci
+
+    x = np.linspace(0.0, 1.0, 50)
+    assert interval_text(lambda: mean_ci(x), "+.2f") == format(mean_ci(x), "+.2f")
+
+    def too_few():
+        raise ValueError("runs must be at least 40")
+
+    assert interval_text(too_few) == NO_INTERVAL
+    from trackcore.stats import Estimate
+
+    basic = Estimate(0.5, 0.4, 0.7, n=40, method="BCa bootstrap (basic: bias beyond BCa's range)")
+    assert interval_text(lambda: basic) == NO_INTERVAL

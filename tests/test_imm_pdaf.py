@@ -293,7 +293,8 @@ def test_general_builders():
     np.testing.assert_array_equal(kf.transition, [[1.0]])
     tom = tom_model_set([0.0], [3.0])
     assert tom.r == 1 and tom.tom and tom.heading == "chord"
-    assert set(TOM_HEADINGS) == {"chord", "chord_literal", "velocity"}
+    assert set(TOM_HEADINGS) == {"chord", "chord_literal", "velocity", "chord_mean2",
+                                 "chord_mean3", "smoothed", "heading_rate_kf"}
     t3 = tom_imm_model_set(heading="chord_literal", kind="cwna")
     assert t3.heading == "chord_literal" and t3.cwna and t3.labels[1].endswith("(right)")
     t4 = tom_model_set([0.0, 50.0, -50.0, 20.0], [1.0, 2.0, 3.0, 4.0], sigma_f=[1, 2, 3, 4])

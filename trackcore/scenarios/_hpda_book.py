@@ -248,3 +248,23 @@ def gospa_parts(metrics, names):
                       for p in ("localisation", "missed", "false")] for n in names]) / 1e3
 
 
+
+
+# ------------------------------------------------------------------- 07, 08: intervals
+
+NO_INTERVAL = "(no interval)"
+
+
+def interval_text(fn, fmt: str = "+.3f") -> str:
+    """``fn()``'s interval formatted with ``fmt``, or :data:`NO_INTERVAL` when it has none.
+
+    ``fn`` computes an :class:`~trackcore.stats.Estimate`. It has none when ``fn`` raises
+    ``ValueError`` (too few runs, a degenerate sample) or when the helper fell back to a
+    basic interval because the estimate lies outside its own bootstrap distribution: the
+    book never widens an interval to contain its estimate.
+    """
+    try:
+        est = fn()
+    except ValueError:
+        return NO_INTERVAL
+    return NO_INTERVAL if "basic" in est.method else format(est, fmt)
