@@ -202,6 +202,15 @@ ALLOWED_NONFINITE = {
     "run_tbd_tracker": [
         ("out.nis", {"nan"}, None,
          "NIS of method A's pseudo-measurement only: NaN for a scan without one, or not A")],
+    "run_tbd_gated_b": [
+        ("out.nis", {"nan"}, None, "NIS of the gate test: NaN for a scan that makes no update")],
+    "run_tbd_imm": [
+        ("out.nis", {"nan"}, None,
+         "NIS of method A's pseudo-measurement only: NaN for a scan without one")],
+    "run_tbd_snr_ekf": [
+        ("out.nis", {"nan"}, None,
+         "NIS of method A's pseudo-measurement only: NaN for a scan without one"),
+        ("out.ess", {"nan"}, None, "sigma_p,k of a scan without an update is undefined: NaN")],
     "hpda_run_metrics": [
         ("out['coverage_turn']", {"nan"}, None,
          "a truth without a turn has no turn coverage: NaN")],
