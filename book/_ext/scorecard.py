@@ -310,7 +310,9 @@ class _Glue:
         nb = _doc_path(self.chapter, doc)
         if nb is None or nb.suffix != ".ipynb" or not key:
             raise ValueError(f"{ref!r} must be '<notebook>::<key>' of the chapter")
-        values = self.cache.setdefault(nb, glued(nb))
+        if nb not in self.cache:  # (setdefault would re-read the notebook at every call)
+            self.cache[nb] = glued(nb)
+        values = self.cache[nb]
         if key not in values:
             raise ValueError(f"key {key!r} is not glued in {nb.name}")
         return values[key]
