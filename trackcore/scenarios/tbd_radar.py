@@ -460,3 +460,123 @@ def tbd_paired_trial(rng, configs, params=TbdRadarParameters(), truth=None,
         if keep:
             tracks[name] = res
     return TbdTrialResult(errors, nproc, nees, x0, scans if keep else None, tracks)
+
+
+# ----------------------------------------------------------------------------- clutter everywhere
+#: Offset added to a cube's lattice index so that it is a non-negative spawn key.
+_CUBE_OFFSET = 1 << 30
+
+
+def _cube_clutter(field, k, index, cube, rate_per_km3, threshold, doppler_max, centre,
+                  sim_radius):
+    """False alarms of scan ``k`` in the lattice cube ``index`` (side ``cube`` m) outside
+    the sphere ``sim_radius`` around ``centre`` (that sphere is the base field's).
+
+    The draws come from their own stream (``field``'s entropy and spawn key extended by
+    ``k`` and the cube's index), so a cube holds the same points whenever it is drawn:
+    the cubes are pieces of one Poisson field over all of space."""
+    key = tuple(field.spawn_key) + (int(k),) + tuple(int(i) + _CUBE_OFFSET for i in index)
+    g = np.random.default_rng(np.random.SeedSequence(field.entropy, spawn_key=key))
+    n = g.poisson(rate_per_km3 * (cube / 1000.0) ** 3)
+    pos = (np.asarray(index, dtype=np.float64) + g.random((n, 3))) * cube
+    zeta = threshold + g.standard_exponential(n)
+    rdot = g.uniform(-doppler_max, doppler_max, n)
+    out = np.linalg.norm(pos - centre, axis=1) > sim_radius
+    return pos[out], rdot[out], zeta[out]
+
+
+def _with_cubes(base, cubes):
+    """``base`` (TbdRadarScans) with the false alarms of ``cubes`` ({(k, i, j, l): (pos,
+    rdot, zeta)}) appended to their scans, in the order of the keys."""
+    if not cubes:
+        return base
+    keys = sorted(cubes)
+    ks = np.concatenate([np.full(cubes[q][0].shape[0], q[0], dtype=np.int64) for q in keys])
+    order = np.argsort(np.concatenate([base.scan_index, ks]), kind="stable")
+    cat = [np.concatenate([a, *(cubes[q][j] for q in keys)])[order]
+           for j, a in enumerate((base.positions, base.range_rate, base.snr))]
+    is_target = np.concatenate([base.is_target, np.zeros(ks.size, dtype=bool)])[order]
+    offsets = np.zeros(base.n_scans + 1, dtype=np.int64)
+    np.cumsum(np.bincount(ks, minlength=base.n_scans) + np.diff(base.offsets),
+              out=offsets[1:])
+    return TbdRadarScans(cat[0], cat[1], cat[2], is_target, offsets, base.target_snr,
+                         base.target_zeta, base.threshold_db, base.sim_radius)
+
+
+def _cubes_needed(centres, truth_pos, radius, sim_radius, cube, pad):
+    """Keys ``(k, i, j, l)`` of the lattice cubes that meet the box of half-side
+    ``radius + pad`` around ``centres[k]``, for every scan whose processing sphere
+    (``radius`` around ``centres[k]``) is not inside the base sphere."""
+    d = np.linalg.norm(centres - truth_pos, axis=1)
+    out = set()
+    for k in np.flatnonzero(~(d + radius <= sim_radius)):
+        lo = np.floor((centres[k] - radius - pad) / cube).astype(np.int64)
+        hi = np.floor((centres[k] + radius + pad) / cube).astype(np.int64)
+        for i in range(lo[0], hi[0] + 1):
+            for j in range(lo[1], hi[1] + 1):
+                for m in range(lo[2], hi[2] + 1):
+                    out.add((int(k), int(i), int(j), int(m)))
+    return out
+
+
+def _everywhere_trial(rng, configs, params=TbdRadarParameters(), truth=None,
+                      P0=TBD_INITIAL_COVARIANCE, cube=5000.0, max_rounds=2000):
+    """One paired run of :func:`tbd_paired_trial` with **clutter everywhere**: the base
+    field (the sphere ``R + simulation_margin`` around the truth, drawn exactly as there)
+    plus, wherever a tracker's processing sphere leaves it, the false alarms of lattice
+    cubes of side ``cube`` drawn lazily from the run's third stream (same density and
+    marks; points inside the base sphere dropped, since the base field covers it).
+
+    A tracker whose processing spheres are not all inside the simulated region is run
+    again with the missing cubes (and their neighbours within half a cube) added, until
+    every sphere of its run is covered; a cube's points never depend on when it was
+    drawn, so the result is the run on one Poisson field over all of space.  A run in
+    which no sphere leaves the base sphere is the same as :func:`tbd_paired_trial`'s.
+    Returns ``SimpleNamespace(errors, x0, reach, rounds)``: ``reach`` per tracker the
+    largest distance of its window centre from the truth (m), ``rounds`` the runs of the
+    trackers needed.
+    """
+    from types import SimpleNamespace
+
+    rng = as_rng(rng)
+    if truth is None:
+        truth = tbd_radar_truth(params)
+    cube = as_positive(cube, "cube")
+    r_scene, r_filter = rng.spawn(2)
+    field = rng.spawn(1)[0].bit_generator.seed_seq
+    base = simulate_tbd_radar(truth, params, r_scene)
+    x0 = truth.states[0] + np.linalg.cholesky(P0) @ r_scene.standard_normal(6)
+    seeds = r_filter.bit_generator.seed_seq.spawn(len(TBD_METHODS))
+    p = truth.states[:, :3]
+    tau = params.threshold
+    rate = params.clutter_density * math.exp(-tau)
+    cubes, errors, reach, todo = {}, {}, {}, list(configs)
+    for rounds in range(1, max_rounds + 1):
+        scans = _with_cubes(base, cubes)
+        caches, missing = {}, set()
+        for name in todo:
+            cfg = configs[name]
+            g = np.random.default_rng(seeds[TBD_METHODS.index(cfg.method)])
+            cache = caches.setdefault(cfg.pfa, np.full(scans.positions.shape[0], np.nan))
+            res = run_tbd_tracker(scans, x0, P0, g, cfg, covariances=cfg.method == "A",
+                                  log_pd_cache=cache)
+            need = _cubes_needed(res.window_centers, p, cfg.processing_radius,
+                                 base.sim_radius, cube, 0.0)
+            if need <= cubes.keys():
+                errors[name] = tbd_position_errors(res.estimates, truth.states)
+                reach[name] = float(np.linalg.norm(res.window_centers - p, axis=1).max())
+            else:
+                missing |= _cubes_needed(res.window_centers, p, cfg.processing_radius,
+                                         base.sim_radius, cube, cube / 2)
+        todo = [n for n in todo if n not in errors]
+        if not todo:
+            break
+        for q in sorted(missing - cubes.keys()):
+            cubes[q] = _cube_clutter(field, q[0], q[1:], cube, rate, tau,
+                                     params.clutter_doppler_max, p[q[0]], base.sim_radius)
+    else:
+        raise RuntimeError(f"the trackers {todo} still leave the simulated clutter after "
+                           f"{max_rounds} rounds")
+    errors = {n: errors[n] for n in configs}
+    return SimpleNamespace(errors=errors, x0=x0, reach={n: reach[n] for n in configs},
+                           rounds=rounds)

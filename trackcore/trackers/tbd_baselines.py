@@ -33,13 +33,12 @@ import numpy as np
 from ..core.validation import (as_array, as_covariance, as_positive, as_probability,
                                as_rng, as_vector)
 from ..filters.kalman import kf_predict_kernel, kf_update_kernel
-from ..filters.particle import propagate_linear_kernel
 from ..models.measurement import wrap_angle_kernel
 from ..models.motion import cv_process_noise, cv_transition
 from .tbd_pf import (_COV_LIMIT, TbdTrackerConfig, TbdTrackResult, _bounded, _inv,
                      _neg_log_kernel, _pf_scan_finish, _pf_setup, _pseudo_covariance_kernel,
                      _rae, _rae_jacobian_kernel, _radial_velocity, _scan_arrays,
-                     _weighted_mean_kernel, _weighted_state, _window, detection_snr_cap)
+                     _pf_predict, _scan_window, _weighted_mean_kernel, detection_snr_cap)
 
 __all__ = ["run_tbd_gated_b", "run_tbd_snr_ekf", "run_tbd_imm"]
 
@@ -122,14 +121,9 @@ def _gated_b_kernel(particles, logw, F, L, pos, rr, snr, log_pfa, snr_cap, cache
     ridx = np.empty(N, dtype=np.int64)
     work = np.empty_like(particles)
     for k in range(K):
-        if k > 0:
-            propagate_linear_kernel(particles, F, L, rng, particles)
-        _weighted_state(particles, logw, w, mean)
-        for a in range(3):
-            centers[k, a] = mean[a]
-        m = _window(pos, snr, log_pfa, snr_cap, offsets[k], offsets[k + 1], mean, R, idx,
-                    lpd, processed, cache)
-        nproc[k] = m
+        _pf_predict(k, particles, F, L, rng, logw, w, mean)
+        m = _scan_window(k, mean, pos, snr, log_pfa, snr_cap, offsets, R, idx, lpd,
+                         processed, cache, centers, nproc)
         nis_out[k] = np.nan
         updated = False
         if m > 0:
@@ -226,11 +220,8 @@ def _snr_ekf_kernel(x, P, F, Q, sig_p, tau, floor, pos, rr, snr, log_pfa, snr_ca
             kf_predict_kernel(x, P, F, Q, xp, Pp)
             x[:] = xp
             P[:, :] = Pp
-        for a in range(3):
-            centers[k, a] = x[a]
-        m = _window(pos, snr, log_pfa, snr_cap, offsets[k], offsets[k + 1], x, R, idx, lpd,
-                    processed, cache)
-        nproc[k] = m
+        m = _scan_window(k, x, pos, snr, log_pfa, snr_cap, offsets, R, idx, lpd,
+                         processed, cache, centers, nproc)
         nis_out[k] = np.nan
         sig_out[k] = np.nan
         if m > 0:
@@ -328,11 +319,8 @@ def _imm_kernel(x0, P0, F, Qs, PI, mu0, sig_p, pos, rr, snr, log_pfa, snr_cap, c
         xc[:] = 0.0
         for j in range(M):
             xc += mu[j] * xs[j]
-        for a in range(3):
-            centers[k, a] = xc[a]
-        m = _window(pos, snr, log_pfa, snr_cap, offsets[k], offsets[k + 1], xc, R, idx,
-                    lpd, processed, cache)
-        nproc[k] = m
+        m = _scan_window(k, xc, pos, snr, log_pfa, snr_cap, offsets, R, idx, lpd,
+                         processed, cache, centers, nproc)
         nis_out[k] = np.nan
         if m > 0:
             rr_ref = _radial_velocity(xc[0], xc[1], xc[2], xc[3], xc[4], xc[5])

@@ -399,6 +399,29 @@ def _window(pos, snr, log_pfa, snr_cap, lo, hi, p, R, idx, lpd, processed, cache
 
 
 @nb.njit(cache=True)
+def _scan_window(k, x, pos, snr, log_pfa, snr_cap, offsets, R, idx, lpd, processed, cache,
+                 centers, nproc):
+    """Scan ``k``'s processing window around ``x[:3]``: records the centre in
+    ``centers[k]``, selects the detections inside (:func:`_window`), records their count
+    in ``nproc[k]`` and returns it."""
+    for a in range(3):
+        centers[k, a] = x[a]
+    m = _window(pos, snr, log_pfa, snr_cap, offsets[k], offsets[k + 1], x, R, idx, lpd,
+                processed, cache)
+    nproc[k] = m
+    return m
+
+
+@nb.njit(cache=True)
+def _pf_predict(k, particles, F, L, rng, logw, w, mean):
+    """A particle filter's prediction to scan ``k`` (none at ``k = 0``) and the weighted
+    mean state ``mean`` of the predicted cloud."""
+    if k > 0:
+        propagate_linear_kernel(particles, F, L, rng, particles)
+    _weighted_state(particles, logw, w, mean)
+
+
+@nb.njit(cache=True)
 def _weighted_state(particles, logw, w, mean):
     """Normalised weights into ``w`` (from ``logw``) and the weighted mean state."""
     N, n = particles.shape
@@ -547,14 +570,9 @@ def _pf_run_kernel(method, particles, logw, F, L, pos, rr, snr, log_pfa, snr_cap
     ridx = np.empty(N, dtype=np.int64)
     work = np.empty_like(particles)
     for k in range(K):
-        if k > 0:
-            propagate_linear_kernel(particles, F, L, rng, particles)
-        _weighted_state(particles, logw, w, mean)
-        for a in range(3):
-            centers[k, a] = mean[a]
-        m = _window(pos, snr, log_pfa, snr_cap, offsets[k], offsets[k + 1], mean, R, idx,
-                    lpd, processed, cache)
-        nproc[k] = m
+        _pf_predict(k, particles, F, L, rng, logw, w, mean)
+        m = _scan_window(k, mean, pos, snr, log_pfa, snr_cap, offsets, R, idx, lpd,
+                         processed, cache, centers, nproc)
         ref = est[k - 1] if (from_previous and k > 0) else mean
         updated = _pf_scan_loglik(method, particles, idx, m, pos, rr, lpd, ref, inv_r,
                                   inv_v, gauss, use_doppler, logla, log_pd, log_miss,
@@ -638,11 +656,8 @@ def _ekf_run_kernel(x, P, F, Q, Rsens, mode, sig_p, sig_prr, pos, rr, snr, log_p
             x[:] = xp
             P[:, :] = Pp
         rr_pred = _radial_velocity(x[0], x[1], x[2], x[3], x[4], x[5])
-        for a in range(3):
-            centers[k, a] = x[a]
-        m = _window(pos, snr, log_pfa, snr_cap, offsets[k], offsets[k + 1], x, R, idx, lpd,
-                    processed, cache)
-        nproc[k] = m
+        m = _scan_window(k, x, pos, snr, log_pfa, snr_cap, offsets, R, idx, lpd, processed,
+                         cache, centers, nproc)
         nis_out[k] = np.nan
         if m > 0:
             ref = est[k - 1] if (from_previous and k > 0) else x
