@@ -31,6 +31,7 @@ WITH_EXAMPLES = [
     "trackcore.association.gating", "trackcore.association.pda", "trackcore.association.jpda",
     "trackcore.detection.amplitude", "trackcore.detection.marcum",
     "trackcore.metrics", "trackcore.stats", "trackcore.montecarlo", "trackcore.plotting",
+    "trackcore.trackers.clustering_hybrid",
     "trackcore.trackers.jpda_tracker",
     "trackcore.trackers.imm_pdaf",
     "trackcore.trackers.sprt_discriminator",
