@@ -284,7 +284,8 @@ def hpda_measurement_count_probability(m, snr, tau, pg, clutter_mean):
 
     Examples
     --------
-    >>> round(hpda_measurement_count_probability(3, snr=10.0, tau=2.0, pg=0.99, clutter_mean=1.0), 4)
+    >>> round(hpda_measurement_count_probability(3, snr=10.0, tau=2.0, pg=0.99,
+    ...                                          clutter_mean=1.0), 4)
     0.1625
     >>> sum(hpda_measurement_count_probability(m, 10.0, 2.0, 0.99, 1.0) for m in range(40))
     1.0...
@@ -305,7 +306,8 @@ def hpda_conditional_rank_probabilities(m, snr, tau, pg, clutter_mean):
     --------
     Given three returns, the strongest is the target's with probability 0.82:
 
-    >>> pt, pf = hpda_conditional_rank_probabilities(3, snr=10.0, tau=2.0, pg=0.99, clutter_mean=1.0)
+    >>> pt, pf = hpda_conditional_rank_probabilities(3, snr=10.0, tau=2.0, pg=0.99,
+    ...                                              clutter_mean=1.0)
     >>> np.round(pt, 4), np.round(pt + pf, 4)
     (array([0.8191, 0.0745, 0.0406]), array([1., 1., 1.]))
     >>> hpda_conditional_rank_probabilities(2, snr=10.0, tau=2.0, pg=0.99, clutter_mean=0.0)
@@ -414,7 +416,8 @@ def rank_gamma(l, snr):
 
     >>> [round(float(rank_gamma(l, snr=10.0)), 4) for l in (1, 2, 3)]
     [1.0, 0.0909, 0.0496]
-    >>> round(float(rank_gamma(2, 10.0) * pa_bar(3, 10.0)), 4), round(float(rank_probability_q(2, 3, 10.0)), 4)
+    >>> g2, q2 = rank_gamma(2, 10.0) * pa_bar(3, 10.0), rank_probability_q(2, 3, 10.0)
+    >>> round(float(g2), 4), round(float(q2), 4)
     (0.0797, 0.0797)
     """
     snr = as_nonnegative(snr, "snr")
@@ -435,7 +438,8 @@ def hpda_rank_probabilities_printed(m, snr, tau, pg, clutter_mean):
     --------
     The printed ``l = m`` branch differs from eq (12) (erratum E10):
 
-    >>> np.round(hpda_rank_probabilities_printed(3, snr=10.0, tau=2.0, pg=0.99, clutter_mean=1.0), 4)
+    >>> np.round(hpda_rank_probabilities_printed(3, snr=10.0, tau=2.0, pg=0.99,
+    ...                                          clutter_mean=1.0), 4)
     array([0.1331, 0.0121, 0.0082])
     >>> np.round(hpda_rank_probabilities(3, snr=10.0, tau=2.0, pg=0.99, clutter_mean=1.0), 4)
     array([0.1331, 0.0121, 0.0066])
@@ -474,7 +478,8 @@ def hpda_betas(target_density, p_target, p_false, gate_volume):
     Two returns in a gate of volume 20: the strongest lies at a lower target density
     but its rank makes it the likelier origin:
 
-    >>> pt, pf = hpda_conditional_rank_probabilities(2, snr=10.0, tau=2.0, pg=0.99, clutter_mean=1.0)
+    >>> pt, pf = hpda_conditional_rank_probabilities(2, snr=10.0, tau=2.0, pg=0.99,
+    ...                                              clutter_mean=1.0)
     >>> betas = hpda_betas([0.05, 0.2], pt, pf, gate_volume=20.0)
     >>> np.round(betas, 4)
     array([0.829 , 0.2459])
@@ -534,7 +539,8 @@ def hpda_mixture_loglik(particles, z, R, p_target, p_false, gate_volume, sensor=
 
     >>> X = np.array([[1000.0, 0.0, 0.0, 0.0], [1010.0, 0.0, 0.0, 0.0], [1100.0, 0.0, 0.0, 0.0]])
     >>> R = np.diag([10.0**2, 0.01**2])
-    >>> np.round(hpda_mixture_loglik(X, [1000.0, 0.0], R, p_target=0.8, p_false=0.2, gate_volume=20.0), 3)
+    >>> ll = hpda_mixture_loglik(X, [1000.0, 0.0], R, p_target=0.8, p_false=0.2, gate_volume=20.0)
+    >>> np.round(ll, 3)
     array([ 0.249, -0.246, -4.605])
     >>> round(float(np.log(0.2 / 20.0)), 3)
     -4.605

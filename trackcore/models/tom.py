@@ -255,7 +255,8 @@ def tom_from_cartesian(x, P, phi):
     A target moving up at 10 m/s, seen with heading pi/2, moves forward at 10 m/s; the
     velocity variances follow their axes:
 
-    >>> x, P = tom_from_cartesian(np.array([0.0, 0.0, 0.0, 10.0]), np.diag([1.0, 1.0, 4.0, 1.0]), np.pi / 2)
+    >>> x_cart, P_cart = np.array([0.0, 0.0, 0.0, 10.0]), np.diag([1.0, 1.0, 4.0, 1.0])
+    >>> x, P = tom_from_cartesian(x_cart, P_cart, np.pi / 2)
     >>> np.round(x, 4) + 0.0, np.round(np.diag(P), 4)
     (array([ 0.,  0., 10.,  0.]), array([1., 1., 1., 4.]))
     """

@@ -120,8 +120,10 @@ class FeatureScene(NamedTuple):
     A scene without frames, as :func:`crossing_detections` returns it (truth only):
 
     >>> detections, scene = crossing_detections(np.random.default_rng(0))
-    >>> scene.name, scene.xy.shape, scene.names, scene.pair, scene.conflict_frame, scene.score_window
-    ('crossing', (60, 2, 2), ('A', 'B'), (0, 1), 30, (20, 40))
+    >>> scene.name, scene.xy.shape, scene.names
+    ('crossing', (60, 2, 2), ('A', 'B'))
+    >>> scene.pair, scene.conflict_frame, scene.score_window
+    ((0, 1), 30, (20, 40))
     """
     name: str
     frames: np.ndarray
@@ -709,8 +711,10 @@ def feature_correlation_samples(rng, n_draws=200, headings_deg=(20.0, 90.0), p_f
     True pairs correlate far better than wrong ones:
 
     >>> true_rho, wrong_rho = feature_correlation_samples(np.random.default_rng(0), n_draws=20)
-    >>> true_rho.shape, wrong_rho.shape, round(float(true_rho.mean()), 3), round(float(wrong_rho.mean()), 3)
-    ((80,), (160,), 0.959, 0.501)
+    >>> true_rho.shape, wrong_rho.shape
+    ((80,), (160,))
+    >>> round(float(true_rho.mean()), 3), round(float(wrong_rho.mean()), 3)
+    (0.959, 0.501)
     """
     from ..detection.image import ncc
     rng = as_rng(rng)

@@ -131,7 +131,8 @@ def forward_lateral(accel_xy, velocity):
     Moving along +x, an acceleration along +x is forward and one along -y is lateral to
     the right:
 
-    >>> forward_lateral(np.array([[1.0, 0.0], [0.0, -2.0]]), np.array([[10.0, 0.0], [10.0, 0.0]])) + 0.0
+    >>> accel, velocity = np.array([[1.0, 0.0], [0.0, -2.0]]), np.array([[10.0, 0.0], [10.0, 0.0]])
+    >>> forward_lateral(accel, velocity) + 0.0
     array([[1., 0.],
            [0., 2.]])
     """

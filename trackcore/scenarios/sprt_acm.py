@@ -102,7 +102,8 @@ class SprtAcmScenario:
     >>> s = SprtAcmScenario("mine", T=2.0, R0=1000.0, alpha_deg=45.0, lead_deg=0.0, gamma=3.0)
     >>> s.target_speed, s.t_release, s.t_end
     (15.4, 60.0, 90.0)
-    >>> SprtAcmScenario("bad", T=2.0, R0=1000.0, alpha_deg=45.0, lead_deg=0.0, gamma=3.0, t_end=91.0)
+    >>> SprtAcmScenario("bad", T=2.0, R0=1000.0, alpha_deg=45.0, lead_deg=0.0, gamma=3.0,
+    ...                 t_end=91.0)
     Traceback (most recent call last):
         ...
     ValueError: t_release and t_end - t_release must be whole multiples of T, got T=2.0, t_release=60.0, t_end=91.0
