@@ -31,6 +31,20 @@ WITH_EXAMPLES = [
     "trackcore.association.gating", "trackcore.association.pda", "trackcore.association.jpda",
     "trackcore.detection.amplitude", "trackcore.detection.marcum",
     "trackcore.metrics", "trackcore.stats", "trackcore.montecarlo", "trackcore.plotting",
+    "trackcore.trackers.clustering_hybrid",
+    "trackcore.trackers.jpda_tracker",
+    "trackcore.trackers.imm_pdaf",
+    "trackcore.trackers.sprt_discriminator",
+    "trackcore.scenarios.sprt_acm",
+    "trackcore.scenarios.feature_scenes",
+    "trackcore.scenarios.random_manoeuvre",
+    "trackcore.scenarios.feature_metrics",
+    "trackcore.experiments",
+    "trackcore.models.tom",
+    "trackcore.detection.sprt",
+    "trackcore.detection.image",
+    "trackcore.association.hpda",
+    "trackcore.association.existence",
 ]
 
 

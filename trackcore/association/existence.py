@@ -68,7 +68,21 @@ def nn_existence_delta(m, d2, normal_density, pd, pg, clutter_density):
     """``delta = 1 - L_NN`` for ``m`` gated returns whose nearest lies at squared
     normalised distance ``d2`` with ``normal_density = N(z; z_hat, S)`` (not divided by
     ``P_G``); ``m = 0`` gives ``P_D P_G`` (``d2`` and ``normal_density`` ignored).
-    ``clutter_density`` lambda in the units of ``N``'s measurement space."""
+    ``clutter_density`` lambda in the units of ``N``'s measurement space.
+
+    Examples
+    --------
+    With no gated return, ``delta = P_D P_G``; a return close to the prediction
+    (density well above the clutter density) gives a large negative ``delta``
+    (existence goes up), a far one a ``delta`` near 0:
+
+    >>> nn_existence_delta(0, 0.0, 0.0, pd=0.9, pg=0.99, clutter_density=1e-3)
+    0.891
+    >>> round(nn_existence_delta(1, 1.0, 0.1, pd=0.9, pg=0.99, clutter_density=1e-3), 3)
+    -89.646
+    >>> round(nn_existence_delta(1, 9.0, 0.001, pd=0.9, pg=0.99, clutter_density=1e-3), 4)
+    -0.01
+    """
     m = as_count(m, "m")
     pd = as_probability(pd, "pd")
     pg = as_probability(pg, "pg")
@@ -82,7 +96,21 @@ def nn_existence_delta(m, d2, normal_density, pd, pg, clutter_density):
 
 def ipda_existence_delta(normal_densities, pd, pg, clutter_density):
     """``delta = 1 - L_IPDA = P_D P_G - P_D sum_j N_j / lambda`` for the gated returns'
-    ``normal_densities`` ``N(z_j; z_hat, S)`` (1-D, possibly empty)."""
+    ``normal_densities`` ``N(z_j; z_hat, S)`` (1-D, possibly empty).
+
+    Examples
+    --------
+    Every gated return counts; an empty gate gives ``P_D P_G``:
+
+    >>> ipda_existence_delta([], pd=0.9, pg=0.99, clutter_density=1e-3)
+    0.891
+    >>> round(ipda_existence_delta([0.1, 0.001], pd=0.9, pg=0.99, clutter_density=1e-3), 3)
+    -90.009
+    >>> ipda_existence_delta([-0.1], pd=0.9, pg=0.99, clutter_density=1e-3)
+    Traceback (most recent call last):
+        ...
+    ValueError: normal_densities must be non-negative
+    """
     nd = as_array(normal_densities, "normal_densities", ndim=1)
     if nd.size and nd.min() < 0:
         raise ValueError("normal_densities must be non-negative")

@@ -220,6 +220,17 @@ def hpda_log_rank_probabilities(m, snr, tau, pg, clutter_mean):
 
     Stable for any ``m`` (log-gamma throughout); use this when ``mu_F``
     underflows (e.g. ``m = 500`` with ``clutter_mean = 1``).
+
+    Examples
+    --------
+    The logarithms stay finite where the probabilities themselves underflow:
+
+    >>> lt, lf, lm = hpda_log_rank_probabilities(3, snr=10.0, tau=2.0, pg=0.99, clutter_mean=1.0)
+    >>> np.round(np.exp(lt), 4), round(float(np.exp(lm)), 4)
+    (array([0.1331, 0.0121, 0.0066]), 0.1625)
+    >>> lt, lf, lm = hpda_log_rank_probabilities(500, snr=10.0, tau=2.0, pg=0.99, clutter_mean=1.0)
+    >>> np.round(lt[:2], 1), round(float(lm), 1)
+    (array([-2606.9, -2609.3]), -2606.3)
     """
     m, c, pd, pg, lam = _common(m, snr, tau, pg, clutter_mean)
     lpt = np.empty(m)
@@ -237,19 +248,48 @@ def hpda_rank_probabilities(m, snr, tau, pg, clutter_mean):
     measurements in the gate.  Returns an array of length ``m`` (empty for
     ``m = 0``).  Values below ~1e-308 underflow to 0; see
     :func:`hpda_log_rank_probabilities` for the logarithms.
+
+    Examples
+    --------
+    Three validated returns at a mean SNR of 10 (linear): the target is most likely
+    the strongest of them:
+
+    >>> np.round(hpda_rank_probabilities(3, snr=10.0, tau=2.0, pg=0.99, clutter_mean=1.0), 4)
+    array([0.1331, 0.0121, 0.0066])
+    >>> hpda_rank_probabilities(0, snr=10.0, tau=2.0, pg=0.99, clutter_mean=1.0)
+    array([], dtype=float64)
     """
     lpt, _, _ = hpda_log_rank_probabilities(m, snr, tau, pg, clutter_mean)
     return np.exp(lpt)
 
 
 def hpda_false_rank_probabilities(m, snr, tau, pg, clutter_mean):
-    """Joint probabilities ``P(M_F^l, m)``, ``l = 1..m`` (eq 10)."""
+    """Joint probabilities ``P(M_F^l, m)``, ``l = 1..m`` (eq 10).
+
+    Examples
+    --------
+    For every rank, true plus false is the probability of ``m`` (eq 10):
+
+    >>> pf = hpda_false_rank_probabilities(3, snr=10.0, tau=2.0, pg=0.99, clutter_mean=1.0)
+    >>> pt = hpda_rank_probabilities(3, snr=10.0, tau=2.0, pg=0.99, clutter_mean=1.0)
+    >>> np.round(pf, 4), np.round(pt + pf, 4)
+    (array([0.0294, 0.1504, 0.1559]), array([0.1625, 0.1625, 0.1625]))
+    """
     _, lpf, _ = hpda_log_rank_probabilities(m, snr, tau, pg, clutter_mean)
     return np.exp(lpf)
 
 
 def hpda_measurement_count_probability(m, snr, tau, pg, clutter_mean):
-    """``P(m) = (1 - P_D P_G) mu_F(m) + P_D P_G mu_F(m-1)`` (eq 11)."""
+    """``P(m) = (1 - P_D P_G) mu_F(m) + P_D P_G mu_F(m-1)`` (eq 11).
+
+    Examples
+    --------
+    >>> round(hpda_measurement_count_probability(3, snr=10.0, tau=2.0, pg=0.99,
+    ...                                          clutter_mean=1.0), 4)
+    0.1625
+    >>> sum(hpda_measurement_count_probability(m, 10.0, 2.0, 0.99, 1.0) for m in range(40))
+    1.0...
+    """
     m, c, pd, pg, lam = _common(m, snr, tau, pg, clutter_mean)
     lpm = hpda_rank_probabilities_kernel(m, c, pd, pg, lam, np.empty(m), np.empty(m))
     return float(math.exp(lpm))
@@ -260,7 +300,21 @@ def hpda_conditional_rank_probabilities(m, snr, tau, pg, clutter_mean):
     divided by ``P(m)``, computed without forming ``mu_F`` (never underflows).
 
     Raises ``ValueError`` when ``P(m) = 0`` (e.g. ``m >= 2`` with
-    ``clutter_mean = 0``)."""
+    ``clutter_mean = 0``).
+
+    Examples
+    --------
+    Given three returns, the strongest is the target's with probability 0.82:
+
+    >>> pt, pf = hpda_conditional_rank_probabilities(3, snr=10.0, tau=2.0, pg=0.99,
+    ...                                              clutter_mean=1.0)
+    >>> np.round(pt, 4), np.round(pt + pf, 4)
+    (array([0.8191, 0.0745, 0.0406]), array([1., 1., 1.]))
+    >>> hpda_conditional_rank_probabilities(2, snr=10.0, tau=2.0, pg=0.99, clutter_mean=0.0)
+    Traceback (most recent call last):
+        ...
+    ValueError: m = 2 measurements has probability 0 under clutter_mean = 0.0 and P_D P_G = 0.82...
+    """
     m, c, pd, pg, lam = _common(m, snr, tau, pg, clutter_mean)
     pt = np.empty(m)
     pf = np.empty(m)
@@ -275,6 +329,18 @@ def rank_probability_q(l, m, snr):
     ``l``-th strongest among itself and ``m - 1`` clutter returns (Beta form).
 
     ``l`` may be an integer array; all entries must satisfy ``1 <= l <= m``.
+
+    Examples
+    --------
+    The ranks of a detected target among three returns (they sum to 1):
+
+    >>> q = rank_probability_q(np.arange(1, 4), 3, snr=10.0)
+    >>> np.round(q, 4), round(float(q.sum()), 6)
+    (array([0.8768, 0.0797, 0.0435]), 1.0)
+    >>> rank_probability_q(4, 3, snr=10.0)
+    Traceback (most recent call last):
+        ...
+    ValueError: l must lie in [1, m] = [1, 3]
     """
     m = as_count(m, "m")
     snr = as_nonnegative(snr, "snr")
@@ -293,7 +359,17 @@ def rank_probability_q(l, m, snr):
 
 
 def pa_bar(m, snr):
-    """``Pbar_A(m) = Gamma(m) Gamma(1+c) / Gamma(m+c)`` (stable form of eq 10's sum)."""
+    """``Pbar_A(m) = Gamma(m) Gamma(1+c) / Gamma(m+c)`` (stable form of eq 10's sum).
+
+    Examples
+    --------
+    The probability that a detected target is the strongest of ``m`` returns:
+
+    >>> round(float(pa_bar(2, snr=10.0)), 4)  # 1 / (1 + c) with c = 1/11
+    0.9167
+    >>> round(float(pa_bar(70, snr=5.0)), 3)
+    0.457
+    """
     m = _as_int_ge1(m)
     return rank_probability_q(1, m, snr)
 
@@ -312,6 +388,15 @@ def pa_bar_alternating(m, snr):
     Kept to demonstrate catastrophic cancellation (erratum E12): at
     ``rho = 5`` it returns about 10.7 for ``m = 70`` although the true value is
     0.457.  Do not use it for computation.
+
+    Examples
+    --------
+    Right for small ``m``, wrong by cancellation for large ``m`` (the true value is 0.457):
+
+    >>> round(float(pa_bar_alternating(5, snr=5.0)), 4), round(float(pa_bar(5, snr=5.0)), 4)
+    (0.7196, 0.7196)
+    >>> round(float(pa_bar_alternating(70, snr=5.0)), 1)
+    10.7
     """
     m = _as_int_ge1(m)
     rho = as_nonnegative(snr, "snr")
@@ -323,7 +408,18 @@ def pa_bar_alternating(m, snr):
 
 def rank_gamma(l, snr):
     """``gamma(l) = prod_{j=1}^{l-1} [(j-1)(1+rho)+1] / ((l-1)! (1+rho)^{l-1})
-    = Gamma(l-1+c) / (Gamma(c) Gamma(l))`` (eq 10), via log-gamma."""
+    = Gamma(l-1+c) / (Gamma(c) Gamma(l))`` (eq 10), via log-gamma.
+
+    Examples
+    --------
+    ``gamma(1) = 1``, and ``q(l, m) = gamma(l) Pbar_A(m)``:
+
+    >>> [round(float(rank_gamma(l, snr=10.0)), 4) for l in (1, 2, 3)]
+    [1.0, 0.0909, 0.0496]
+    >>> g2, q2 = rank_gamma(2, 10.0) * pa_bar(3, 10.0), rank_probability_q(2, 3, 10.0)
+    >>> round(float(g2), 4), round(float(q2), 4)
+    (0.0797, 0.0797)
+    """
     snr = as_nonnegative(snr, "snr")
     l = _as_int_ge1(l)
     c = 1.0 / (1.0 + snr)
@@ -336,7 +432,18 @@ def hpda_rank_probabilities_printed(m, snr, tau, pg, clutter_mean):
     ``gamma``, and the printed ``l = m`` branch
     ``mu_F(m-1) / (P_D P_G m + (m-1) rho)`` (erratum E10: wrong).
 
-    For demonstration only (notebook 02)."""
+    For demonstration only (notebook 02).
+
+    Examples
+    --------
+    The printed ``l = m`` branch differs from eq (12) (erratum E10):
+
+    >>> np.round(hpda_rank_probabilities_printed(3, snr=10.0, tau=2.0, pg=0.99,
+    ...                                          clutter_mean=1.0), 4)
+    array([0.1331, 0.0121, 0.0082])
+    >>> np.round(hpda_rank_probabilities(3, snr=10.0, tau=2.0, pg=0.99, clutter_mean=1.0), 4)
+    array([0.1331, 0.0121, 0.0066])
+    """
     m, c, pd, pg, lam = _common(m, snr, tau, pg, clutter_mean)
     rho = 1.0 / c - 1.0
     if m == 0:
@@ -365,6 +472,19 @@ def hpda_betas(target_density, p_target, p_false, gate_volume):
     ``gate_volume`` V_G.  Each beta^l is the posterior probability that the
     ``l``-th strongest measurement is the target's, given its rank and
     position only.
+
+    Examples
+    --------
+    Two returns in a gate of volume 20: the strongest lies at a lower target density
+    but its rank makes it the likelier origin:
+
+    >>> pt, pf = hpda_conditional_rank_probabilities(2, snr=10.0, tau=2.0, pg=0.99,
+    ...                                              clutter_mean=1.0)
+    >>> betas = hpda_betas([0.05, 0.2], pt, pf, gate_volume=20.0)
+    >>> np.round(betas, 4)
+    array([0.829 , 0.2459])
+    >>> hpda_select(betas)
+    0
     """
     f = as_array(target_density, "target_density", ndim=1)
     m = f.shape[0]
@@ -386,7 +506,15 @@ def hpda_betas(target_density, p_target, p_false, gate_volume):
 def hpda_select(betas):
     """Index ``s`` (0-based rank) of the highest beta (eq 15); -1 for ``m = 0``.
 
-    Ties go to the stronger measurement (smaller rank)."""
+    Ties go to the stronger measurement (smaller rank).
+
+    Examples
+    --------
+    >>> hpda_select([0.2, 0.7, 0.7])  # a tie goes to the stronger return
+    1
+    >>> hpda_select([])  # no validated measurement
+    -1
+    """
     b = as_array(betas, "betas", ndim=1)
     if b.size == 0:
         return -1
@@ -402,6 +530,20 @@ def hpda_mixture_loglik(particles, z, R, p_target, p_false, gate_volume, sensor=
     ``p_false`` are the probabilities *conditional on m* (e.g. from
     :func:`hpda_conditional_rank_probabilities`), so the result is the
     normalised likelihood of (13).  Returns ``(N,)``.
+
+    Examples
+    --------
+    Range-bearing ``z = (1000 m, 0 rad)`` seen from the origin; particles are
+    ``[x, y, ...]`` rows.  A particle far from ``z`` keeps the clutter floor
+    ``log(P_F / V_G) = log(0.2 / 20)``:
+
+    >>> X = np.array([[1000.0, 0.0, 0.0, 0.0], [1010.0, 0.0, 0.0, 0.0], [1100.0, 0.0, 0.0, 0.0]])
+    >>> R = np.diag([10.0**2, 0.01**2])
+    >>> ll = hpda_mixture_loglik(X, [1000.0, 0.0], R, p_target=0.8, p_false=0.2, gate_volume=20.0)
+    >>> np.round(ll, 3)
+    array([ 0.249, -0.246, -4.605])
+    >>> round(float(np.log(0.2 / 20.0)), 3)
+    -4.605
     """
     X = as_array(particles, "particles", ndim=2)
     if X.shape[1] < 2:
@@ -432,7 +574,15 @@ def hpda_mixture_loglik(particles, z, R, p_target, p_false, gate_volume, sensor=
 # existence (16)-(19)
 # --------------------------------------------------------------------------
 def existence_predict(p, pi11, pi12=0.0):
-    """Eq (17) corrected (E13): ``P(H_k|Z^{k-1}) = Pi11 p + Pi12 (1 - p)``."""
+    """Eq (17) corrected (E13): ``P(H_k|Z^{k-1}) = Pi11 p + Pi12 (1 - p)``.
+
+    Examples
+    --------
+    >>> existence_predict(0.5, pi11=0.98)
+    0.49
+    >>> existence_predict(0.5, pi11=0.98, pi12=0.01)  # births from the no-target state
+    0.495
+    """
     p = as_probability(p, "p")
     pi11 = as_probability(pi11, "pi11")
     pi12 = as_probability(pi12, "pi12")
@@ -444,7 +594,20 @@ def hpda_existence_delta(m, s, normal_density, snr, tau, pg, clutter_density, ga
     (1-based, ``1 <= s <= m``; ignored when ``m = 0``), ``normal_density =
     N(z^s; z_hat, S)`` (*not* divided by P_G), lambda = ``clutter_density``
     in measurement-space units and ``gate_volume`` V_G.  ``m = 0`` gives
-    ``P_D P_G`` (the IPDA miss update)."""
+    ``P_D P_G`` (the IPDA miss update).
+
+    Examples
+    --------
+    An empty gate gives ``P_D P_G``; one return near the prediction, whose density exceeds
+    the clutter density, gives ``delta < 0`` (existence goes up):
+
+    >>> round(hpda_existence_delta(0, 0, 0.0, snr=10.0, tau=2.0, pg=0.99,
+    ...                            clutter_density=0.05, gate_volume=20.0), 4)
+    0.8254
+    >>> round(hpda_existence_delta(2, 1, 0.05, snr=10.0, tau=2.0, pg=0.99,
+    ...                            clutter_density=0.05, gate_volume=20.0), 4)
+    -0.8407
+    """
     m = as_count(m, "m")
     snr = as_nonnegative(snr, "snr")
     tau = as_nonnegative(tau, "tau")
@@ -463,7 +626,21 @@ def hpda_existence_delta(m, s, normal_density, snr, tau, pg, clutter_density, ga
 
 
 def existence_update(p_pred, delta):
-    """Eq (19): ``(1 - delta) p / (1 - delta p)`` with ``p = P(H_k|Z^{k-1})``."""
+    """Eq (19): ``(1 - delta) p / (1 - delta p)`` with ``p = P(H_k|Z^{k-1})``.
+
+    Examples
+    --------
+    ``delta < 0`` raises the existence probability, ``delta > 0`` lowers it:
+
+    >>> round(existence_update(0.5, -0.8407), 4)
+    0.648
+    >>> round(existence_update(0.5, 0.8254), 4)
+    0.1486
+    >>> existence_update(0.5, 1.5)
+    Traceback (most recent call last):
+        ...
+    ValueError: delta must be <= 1, got 1.5
+    """
     p = as_probability(p_pred, "p_pred")
     d = as_scalar(delta, "delta")
     if d > 1.0:
@@ -515,6 +692,20 @@ def simulate_hpda_ranks(rng, n_draws, snr, tau, pg, clutter_mean, m_max):
     target ranked ``l`` (1 = strongest), ``counts[m, 0]`` with no target
     measurement.  Draws with ``m > m_max`` are dropped (they still count in
     ``n_draws``).
+
+    Examples
+    --------
+    20,000 draws: the fraction with ``m`` returns and the target strongest, against
+    eq (12):
+
+    >>> counts = simulate_hpda_ranks(np.random.default_rng(0), 20_000, snr=10.0, tau=2.0, pg=0.99,
+    ...                              clutter_mean=1.0, m_max=3)
+    >>> counts.shape
+    (4, 4)
+    >>> np.round(counts[1:, 1] / 20_000, 3)
+    array([0.308, 0.279, 0.131])
+    >>> np.round([hpda_rank_probabilities(m, 10.0, 2.0, 0.99, 1.0)[0] for m in (1, 2, 3)], 3)
+    array([0.304, 0.278, 0.133])
     """
     rng = as_rng(rng)
     n = as_count(n_draws, "n_draws")
@@ -594,6 +785,23 @@ def simulate_existence_posterior(rng, n_draws, m, s, centre, radius, snr, tau, g
     ``s``-th strongest within ``radius`` of ``centre``.  Returns
     ``(n_events, n_events_with_existence)``; their ratio estimates
     ``P(H | m, z^s near centre)``, to compare with eq (19).
+
+    Examples
+    --------
+    One return near the prediction in a 99 % gate (``|z|^2 <= 9.21``) holding on average one
+    clutter return; the posterior from 20,000 draws, against eq (19):
+
+    >>> import math
+    >>> n, n_exist = simulate_existence_posterior(np.random.default_rng(0), 20_000, m=1, s=1,
+    ...     centre=(0.0, 0.0), radius=0.5, snr=10.0, tau=2.0, gate_threshold=9.21,
+    ...     clutter_mean=1.0, p_prior=0.5)
+    >>> n, round(n_exist / n, 3)
+    (491, 0.79)
+    >>> vg = math.pi * 9.21
+    >>> d = hpda_existence_delta(1, 1, 1 / (2 * math.pi), snr=10.0, tau=2.0,
+    ...     pg=1 - math.exp(-9.21 / 2), clutter_density=1 / vg, gate_volume=vg)
+    >>> round(existence_update(0.5, d), 3)
+    0.801
     """
     rng = as_rng(rng)
     n = as_count(n_draws, "n_draws")

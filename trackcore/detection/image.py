@@ -75,6 +75,18 @@ def vehicle_sprite(kind):
     rounded by one pixel; two 2x3 saturated (255) lamps sit at the front
     (last three columns), 8 px apart centre to centre.  The truck has a cargo
     box (intensity 82) over its rear 70 %.
+
+    Examples
+    --------
+    >>> intensity, mask = vehicle_sprite("sedan")
+    >>> intensity.shape, int(mask.sum()), float(intensity.max())  # (rows, columns), area, lamps
+    ((12, 24), 284, 255.0)
+    >>> vehicle_sprite("truck")[0].shape
+    (16, 40)
+    >>> vehicle_sprite("car")
+    Traceback (most recent call last):
+        ...
+    ValueError: kind must be one of ['compact', 'hatchback', 'sedan', 'suv', 'truck', 'van'], got 'car'
     """
     if kind not in SPRITES:
         raise ValueError(f"kind must be one of {sorted(SPRITES)}, got {kind!r}")
@@ -94,7 +106,14 @@ def vehicle_sprite(kind):
 
 
 def bar_sprite(h=22, w=6, intensity=100.0):
-    """The flickering hot bar (clutter c1): an h x w rectangle."""
+    """The flickering hot bar (clutter c1): an h x w rectangle.
+
+    Examples
+    --------
+    >>> intensity, mask = bar_sprite()
+    >>> intensity.shape, int(mask.sum()), float(intensity.max())
+    ((22, 6), 132, 100.0)
+    """
     h = as_int(h, "h", minimum=1)
     w = as_int(w, "w", minimum=1)
     if max(h, w) > MAX_SPRITE:
@@ -105,7 +124,14 @@ def bar_sprite(h=22, w=6, intensity=100.0):
 
 def glare_sprite(radius=3.5, intensity=180.0):
     """A bright round blob (a glint or hot spot travelling with a vehicle): the disc of
-    pixels within ``radius`` px of the centre pixel."""
+    pixels within ``radius`` px of the centre pixel.
+
+    Examples
+    --------
+    >>> intensity, mask = glare_sprite(radius=3.5)
+    >>> mask.shape, int(mask.sum())
+    ((7, 7), 37)
+    """
     radius = as_positive(radius, "radius")
     if radius > MAX_SPRITE / 2:
         raise ValueError(f"radius must be at most {MAX_SPRITE / 2} px, got {radius}")
@@ -119,7 +145,14 @@ def glare_sprite(radius=3.5, intensity=180.0):
 def foliage_sprite(rng, radius=7.0, intensity=75.0, amplitude=0.35):
     """A roundish irregular blob (clutter c2): boundary radius
     r(phi) = radius (1 + sum_k a_k cos(k phi + phase_k)), k = 2, 3, 5, with
-    the sum of the ``|a_k|`` is the amplitude (random split and phases)."""
+    the sum of the ``|a_k|`` is the amplitude (random split and phases).
+
+    Examples
+    --------
+    >>> intensity, mask = foliage_sprite(np.random.default_rng(0), radius=7.0)
+    >>> mask.shape, int(mask.sum())
+    ((14, 17), 159)
+    """
     rng = as_rng(rng)
     radius = as_positive(radius, "radius")
     if radius > MAX_SPRITE / 4:
@@ -146,7 +179,17 @@ def rotate_sprite(intensity, mask, heading):
     counter-clockwise in the x-right / y-up sense, i.e. 0 = moving right,
     pi/2 = moving up the image).  The mask is nearest neighbour on a 4 x 4
     sub-pixel grid (a pixel is in if half its area is), which keeps the area;
-    the intensity is bilinear; both are cropped to the mask."""
+    the intensity is bilinear; both are cropped to the mask.
+
+    Examples
+    --------
+    A quarter turn stands the sedan upright and keeps its area:
+
+    >>> intensity, mask = vehicle_sprite("sedan")
+    >>> up, up_mask = rotate_sprite(intensity, mask, np.pi / 2)
+    >>> up_mask.shape, int(up_mask.sum()), int(mask.sum())
+    ((24, 12), 284, 284)
+    """
     intensity = as_array(intensity, "intensity", ndim=2)
     mask = _as_mask(mask, "mask")
     if mask.shape != intensity.shape:
@@ -213,6 +256,12 @@ def terrain(rng, shape=FRAME_SHAPE, mean=40.0, texture_sd=8.0, road_level=30.0,
     ``vertical_road`` (inclusive start, exclusive end) at ``road_level``
     (each may be ``None``).  ``diagonal_road = (x0, y0, angle, width)`` adds a
     straight road through pixel (x0, y0) at ``angle`` radians (x right, y up).
+
+    Examples
+    --------
+    >>> bg = terrain(np.random.default_rng(0))
+    >>> bg.shape, round(float(bg[:50, :50].mean()), 1), float(bg[120, 10])  # field, road
+    ((240, 320), 39.9, 30.0)
     """
     rng = as_rng(rng)
     if len(shape) != 2:
@@ -255,6 +304,18 @@ def render_frame(background, objects, rng, gain=1.0, noise_sd=3.0):
     Returns ``(frame, labels, boxes)``: ``labels`` (H, W) int array with
     object i's visible pixels set to i + 1 (0 = background), and ``boxes``
     (n, 4) int array [r0, c0, r1, c1] (exclusive ends; -1 if off-frame).
+
+    Examples
+    --------
+    A sedan centred at column 60, row 120 (its 12 x 24 sprite has no centre pixel, so its
+    box spans rows 115-126 and columns 49-72):
+
+    >>> bg = terrain(np.random.default_rng(0))
+    >>> intensity, mask = vehicle_sprite("sedan")
+    >>> frame, labels, boxes = render_frame(bg, [(intensity, mask, 60.0, 120.0)],
+    ...                                     np.random.default_rng(1))
+    >>> frame.dtype, frame.shape, boxes, int((labels == 1).sum())
+    (dtype('uint8'), (240, 320), array([[115,  49, 127,  73]]), 284)
     """
     rng = as_rng(rng)
     bg = as_array(background, "background", ndim=2)
@@ -347,6 +408,20 @@ class ViBe:
     pixels replace one of their samples with probability 1/``subsample`` and
     one sample of a random 8-neighbour with the same probability
     (conservative update with spatial propagation).
+
+    Examples
+    --------
+    Initialised on an empty frame, ViBe flags the pixels of a vehicle that appears
+    (281 of its 284 pixels, and one more):
+
+    >>> bg = terrain(np.random.default_rng(0))
+    >>> empty = render_frame(bg, [], np.random.default_rng(2))[0]
+    >>> vibe = ViBe(empty, np.random.default_rng(3))
+    >>> intensity, mask = vehicle_sprite("sedan")
+    >>> frame = render_frame(bg, [(intensity, mask, 60.0, 120.0)], np.random.default_rng(1))[0]
+    >>> fg = vibe.apply(frame)
+    >>> fg.dtype, int(fg.sum()), int(fg[115:127, 49:73].sum())
+    (dtype('bool'), 282, 281)
     """
 
     def __init__(self, first_frame, rng, n_samples=20, radius=12.0, min_matches=2,
@@ -381,7 +456,23 @@ class ViBe:
 
 class RunningAverage:
     """Selective running average: foreground if ``|I - B| > threshold``;
-    B <- (1 - alpha) B + alpha I on background pixels only."""
+    B <- (1 - alpha) B + alpha I on background pixels only.
+
+    Examples
+    --------
+    A fixed threshold of 12 grey levels also flags sensor noise (sd 3 per frame) away
+    from the vehicle:
+
+    >>> bg = terrain(np.random.default_rng(0))
+    >>> ra = RunningAverage(render_frame(bg, [], np.random.default_rng(2))[0], threshold=12.0)
+    >>> intensity, mask = vehicle_sprite("sedan")
+    >>> frame = render_frame(bg, [(intensity, mask, 60.0, 120.0)], np.random.default_rng(1))[0]
+    >>> fg = ra.apply(frame)
+    >>> int(fg.sum()), int(fg[115:127, 49:73].sum())
+    (531, 283)
+    >>> detect_blobs(fg, frame).z  # the cleaning removes the scattered noise pixels
+    array([[ 60.5, 120.5]])
+    """
 
     def __init__(self, first_frame, alpha=0.05, threshold=12.0):
         self.B = as_array(first_frame, "first_frame", ndim=2).copy()
@@ -426,7 +517,18 @@ def _morph3_kernel(mask, out, dilate):
 def clean_mask(mask):
     """3x3 binary opening, then 3x3 closing (same result as
     ``ndimage.binary_closing(ndimage.binary_opening(mask, s), s)`` with a 3x3
-    square ``s``; a numba kernel)."""
+    square ``s``; a numba kernel).
+
+    Examples
+    --------
+    The opening removes an isolated pixel and keeps a 4 x 4 block:
+
+    >>> m = np.zeros((8, 8), dtype=bool)
+    >>> m[2:6, 2:6] = True
+    >>> m[0, 7] = True
+    >>> int(m.sum()), int(clean_mask(m).sum())
+    (17, 16)
+    """
     a = _as_mask(mask, "mask")
     b = np.empty_like(a)
     _morph3_kernel(a, b, False)      # opening: erode ...
@@ -440,7 +542,18 @@ def clean_mask(mask):
 class ImageDetections(NamedTuple):
     """Detections of one frame: ``z`` (m, 2) centroids [x, y] (px), ``boxes``
     (m, 4) [r0, c0, r1, c1], ``areas`` (m,), and per detection the binary
-    mask crop and grey crop (bounding box plus ``margin`` px)."""
+    mask crop and grey crop (bounding box plus ``margin`` px).
+
+    Examples
+    --------
+    What :func:`detect_blobs` returns:
+
+    >>> m = np.zeros((20, 20), dtype=bool)
+    >>> m[5:10, 4:9] = True
+    >>> det = detect_blobs(m, np.zeros((20, 20), np.uint8), min_area=4)
+    >>> type(det).__name__, det.z, det.areas
+    ('ImageDetections', array([[6., 7.]]), array([25]))
+    """
     z: np.ndarray
     boxes: np.ndarray
     areas: np.ndarray
@@ -450,7 +563,20 @@ class ImageDetections(NamedTuple):
 
 def detect_blobs(mask, frame, min_area=25, margin=4, clean=True):
     """Connected components (8-connected, area >= ``min_area``) of a
-    foreground mask (cleaned by :func:`clean_mask` unless ``clean=False``)."""
+    foreground mask (cleaned by :func:`clean_mask` unless ``clean=False``).
+
+    Examples
+    --------
+    Two blobs; the one under ``min_area`` pixels is dropped.  Centroids are ``[x, y]``
+    (column, row):
+
+    >>> m = np.zeros((20, 20), dtype=bool)
+    >>> m[5:10, 4:9] = True    # 25 px
+    >>> m[14:16, 14:16] = True  # 4 px
+    >>> det = detect_blobs(m, np.zeros((20, 20), np.uint8), min_area=9, clean=False)
+    >>> det.z, det.boxes, det.areas
+    (array([[6., 7.]]), array([[ 5,  4, 10,  9]]), array([25]))
+    """
     mask = _as_mask(mask, "mask")
     frame = as_array(frame, "frame", ndim=2)
     if mask.shape != frame.shape:
@@ -484,7 +610,17 @@ def detect_blobs(mask, frame, min_area=25, margin=4, clean=True):
 
 
 def mask_iou(a, b):
-    """Intersection over union of two boolean masks (1.0 if both empty)."""
+    """Intersection over union of two boolean masks (1.0 if both empty).
+
+    Examples
+    --------
+    >>> a = np.zeros((4, 4), dtype=bool); a[:2] = True
+    >>> b = np.zeros((4, 4), dtype=bool); b[1:3] = True
+    >>> round(mask_iou(a, b), 4)  # 4 shared of 12 pixels
+    0.3333
+    >>> mask_iou(np.zeros((2, 2), bool), np.zeros((2, 2), bool))
+    1.0
+    """
     a = _as_mask(a, "a")
     b = _as_mask(b, "b")
     if a.shape != b.shape:
@@ -612,7 +748,22 @@ def ncc(A, B, s=4, kind="mask"):
     the median of each patch's border rows (``kind="grey"``); B shifted by
     every integer (u, v) with ``|u|, |v| <= s``; the maximum NCC over the canvas.
     A constant canvas has NCC 0.  With ``kind="mask"`` the patches must be binary
-    (0/1 or booleans)."""
+    (0/1 or booleans).
+
+    Examples
+    --------
+    A sedan's mask against itself, a truck's, and two sedans merged into one blob:
+
+    >>> car = vehicle_sprite("sedan")[1]
+    >>> truck = vehicle_sprite("truck")[1]
+    >>> two = np.zeros((12, 52), dtype=bool); two[:, :24] = car; two[:, 28:] = car
+    >>> round(ncc(car, car), 4), round(ncc(car, truck), 4), round(ncc(car, two), 4)
+    (1.0, 0.5152, 0.3832)
+    >>> ncc(car, car, kind="x")
+    Traceback (most recent call last):
+        ...
+    ValueError: kind must be 'mask' or 'grey', got 'x'
+    """
     A, B, s = _ncc_inputs(A, B, s, kind)
     fa, fb = _fill_value(A, kind), _fill_value(B, kind)
     return float(_ncc_patches_kernel(A, B, fa, fb, s))
@@ -678,7 +829,17 @@ def ncc_sliding(A, B, s=4, kind="mask"):
     template's window only, each side zero-meaned over that window; the maximum
     over the positions (a window of constant values scores 0).  Unlike :func:`ncc`,
     a measurement larger than the template (two merged blobs) is searched
-    wholly, and pixels outside the best window do not lower the score."""
+    wholly, and pixels outside the best window do not lower the score.
+
+    Examples
+    --------
+    The template is found whole inside two merged sedans (compare :func:`ncc`, 0.38):
+
+    >>> car = vehicle_sprite("sedan")[1]
+    >>> two = np.zeros((12, 52), dtype=bool); two[:, :24] = car; two[:, 28:] = car
+    >>> round(ncc_sliding(car, two), 4)
+    1.0
+    """
     A, B, s = _ncc_inputs(A, B, s, kind)
     fb = _fill_value(B, kind)
     if kind == "grey":
@@ -693,7 +854,17 @@ def _mask_ncc_sliding(A, B, s=4):
 
 def ncc_reference(A, B, s=4, kind="mask"):
     """Direct numpy loop over shifts (the test reference for :func:`ncc`); the same
-    arguments and checks."""
+    arguments and checks.
+
+    Examples
+    --------
+    The same number as :func:`ncc`, by a plain loop:
+
+    >>> car = vehicle_sprite("sedan")[1]
+    >>> truck = vehicle_sprite("truck")[1]
+    >>> round(ncc_reference(car, truck), 4), round(ncc(car, truck), 4)
+    (0.5152, 0.5152)
+    """
     A, B, s = _ncc_inputs(A, B, s, kind)
     fa, fb = _fill_value(A, kind), _fill_value(B, kind)
     ca, rb, qb = _canvas(A, B, s, fa, fb)
@@ -710,7 +881,15 @@ def ncc_reference(A, B, s=4, kind="mask"):
 
 
 def ncc_matrix(templates, patches, s=4, kind="mask"):
-    """rho[i, j] = ncc(templates[i], patches[j])."""
+    """rho[i, j] = ncc(templates[i], patches[j]).
+
+    Examples
+    --------
+    >>> car, truck = vehicle_sprite("sedan")[1], vehicle_sprite("truck")[1]
+    >>> np.round(ncc_matrix([car, truck], [car, truck]), 3)
+    array([[1.   , 0.515],
+           [0.515, 1.   ]])
+    """
     if isinstance(templates, np.ndarray) and templates.ndim == 2:
         raise ValueError("templates must be a sequence of 2-D patches, got one 2-D array")
     if isinstance(patches, np.ndarray) and patches.ndim == 2:

@@ -56,7 +56,16 @@ SPRT_UNDECIDED = -1
 
 
 class SprtResult(NamedTuple):
-    """Outcome of a sequential test over a sequence of scans."""
+    """Outcome of a sequential test over a sequence of scans.
+
+    Examples
+    --------
+    What :func:`sprt_test` returns:
+
+    >>> r = sprt_test([1.5, 2.0, 1.5], *sprt_thresholds(0.01, 0.01))
+    >>> r.decision, r.scan, r.llr
+    (1, 3, array([1.5, 3.5, 5. ]))
+    """
     decision: int       # 0 = H0, 1 = H1, -1 = undecided
     scan: int           # 1-based scan of the decision (0 if undecided)
     llr: np.ndarray     # cumulative log-likelihood ratio Lambda(k), k = 1..K
@@ -79,6 +88,15 @@ class SprtState:
 
     The fields are checked when the record is built (``ValueError`` or
     ``TypeError`` naming the field).
+
+    Examples
+    --------
+    >>> SprtState()
+    SprtState(llr=0.0, k=0, decision=-1, scan=0)
+    >>> SprtState(k=-1)
+    Traceback (most recent call last):
+        ...
+    ValueError: k must be >= 0, got -1
     """
     llr: float = 0.0
     k: int = 0
@@ -118,6 +136,18 @@ def sprt_thresholds(p_miss, p_false):
     ``p_miss = P_M = P(decide H0 | H1)``, ``p_false = P_F = P(decide H1 | H0)``,
     both in (0, 1) with ``P_M + P_F < 1`` (otherwise ``gamma0 >= gamma1`` and
     the test is meaningless).  Returns ``(ln(P_M/(1-P_F)), ln((1-P_M)/P_F))``.
+
+    Examples
+    --------
+    Equal error probabilities of 1 % give symmetric thresholds ``-+ln 99``:
+
+    >>> g0, g1 = sprt_thresholds(0.01, 0.01)
+    >>> round(g0, 4), round(g1, 4)
+    (-4.5951, 4.5951)
+    >>> sprt_thresholds(0.6, 0.5)
+    Traceback (most recent call last):
+        ...
+    ValueError: p_miss + p_false must be < 1, got 0.6 + 0.5
     """
     pm = as_probability(p_miss, "p_miss", open_low=True, open_high=True)
     pf = as_probability(p_false, "p_false", open_low=True, open_high=True)
@@ -132,6 +162,13 @@ def sprt_symmetric_error(gamma):
     """Error probability ``P_e`` with ``P_M = P_F = P_e`` whose thresholds are ``-+gamma``.
 
     Inverts ``gamma = ln((1 - P_e)/P_e)``: ``P_e = 1 / (1 + e^gamma)``.
+
+    Examples
+    --------
+    The inverse of :func:`sprt_thresholds` with ``P_M = P_F``:
+
+    >>> round(sprt_symmetric_error(4.5951), 4)
+    0.01
     """
     g = as_scalar(gamma, "gamma")
     if not g > 0.0:
@@ -145,6 +182,19 @@ def sprt_step(state, increment, gamma0, gamma1):
 
     Once decided, the decision and its scan stay fixed while ``llr`` and ``k``
     keep accumulating (the book keeps computing Lambda after the decision).
+
+    Examples
+    --------
+    An online test fed one increment per scan decides H1 at scan 3 (``Lambda = 5 > 4.6``):
+
+    >>> g0, g1 = sprt_thresholds(0.01, 0.01)
+    >>> state = SprtState()
+    >>> for increment in (2.0, 2.0, 1.0):
+    ...     state = sprt_step(state, increment, g0, g1)
+    >>> state
+    SprtState(llr=5.0, k=3, decision=1, scan=3)
+    >>> sprt_step(state, -20.0, g0, g1)  # the decision stays
+    SprtState(llr=-15.0, k=4, decision=1, scan=3)
     """
     if not isinstance(state, SprtState):
         raise TypeError(f"state must be an SprtState, got {type(state).__name__}")
@@ -192,6 +242,16 @@ def sprt_decide(llr, gamma0, gamma1):
     ``llr`` is ``Lambda(k)`` for ``k = 1..K``: shape ``(K,)`` for one test or
     ``(N, K)`` for ``N`` tests (K = 0 is allowed: undecided).  Returns
     ``(decision, scan)`` as ints for a 1-D input, int arrays ``(N,)`` otherwise.
+
+    Examples
+    --------
+    Two paths: the first crosses ``gamma1`` at scan 3 (H1), the second ``gamma0`` at scan 2 (H0):
+
+    >>> g0, g1 = sprt_thresholds(0.01, 0.01)
+    >>> sprt_decide(np.array([[1.0, 3.0, 5.0], [-2.0, -5.0, -1.0]]), g0, g1)
+    (array([1, 0]), array([3, 2]))
+    >>> sprt_decide(np.array([1.0, 3.0]), g0, g1)  # one path, still undecided
+    (-1, 0)
     """
     L = as_array(llr, "llr", ndim=(1, 2))
     g0, g1 = _check_thresholds(gamma0, gamma1)
@@ -211,6 +271,14 @@ def sprt_test(increments, gamma0, gamma1):
     ``increments[k-1] = ln p(z(k)|Z^{k-1},H1) - ln p(z(k)|Z^{k-1},H0)``; an
     empty sequence is valid (undecided).  Returns :class:`SprtResult` with the
     whole cumulative path (computed past the decision).
+
+    Examples
+    --------
+    The cumulative path is kept past the decision:
+
+    >>> g0, g1 = sprt_thresholds(0.01, 0.01)
+    >>> sprt_test([1.5, 2.0, 1.5, -1.0], g0, g1)
+    SprtResult(decision=1, scan=3, llr=array([1.5, 3.5, 5. , 4. ]))
     """
     inc = as_array(increments, "increments", ndim=1)
     g0, g1 = _check_thresholds(gamma0, gamma1)
@@ -224,6 +292,11 @@ def wald_error_probabilities(gamma0, gamma1):
 
     With ``A = e^gamma1``, ``B = e^gamma0``: ``P_F = (1 - B)/(A - B)`` and
     ``P_M = B (A - 1)/(A - B)``; the exact inverse of :func:`sprt_thresholds`.
+
+    Examples
+    --------
+    >>> np.round(wald_error_probabilities(*sprt_thresholds(0.05, 0.01)), 4)  # (P_F, P_M)
+    array([0.01, 0.05])
     """
     g0, g1 = _check_thresholds(gamma0, gamma1)
     # divide numerator and denominator by A = e^gamma1 (no overflow for large gamma1)
@@ -243,6 +316,14 @@ def wald_expected_stopping_llr(gamma0, gamma1, p_decide_h0):
     thresholds weighted by the probabilities of reaching them.  Under H0 with
     Wald's ``P_F`` (:func:`wald_error_probabilities`) it is
     ``(1 - P_F) gamma0 + P_F gamma1``.
+
+    Examples
+    --------
+    Under H0 with 1 % errors the test stops, on average, just above ``gamma0 = -4.5951``:
+
+    >>> g0, g1 = sprt_thresholds(0.01, 0.01)
+    >>> round(wald_expected_stopping_llr(g0, g1, p_decide_h0=0.99), 4)
+    -4.5032
     """
     g0, g1 = _check_thresholds(gamma0, gamma1)
     L = as_probability(p_decide_h0, "p_decide_h0")
@@ -256,6 +337,15 @@ def wald_oc(h, gamma0, gamma1):
     under the true distribution (``h = 1`` under H0, ``h = -1`` under H1).
     ``L(h) = (e^{h gamma1} - 1)/(e^{h gamma1} - e^{h gamma0})``, and
     ``L(0) = gamma1/(gamma1 - gamma0)``.  ``h`` may be an array.
+
+    Examples
+    --------
+    Under H0 (``h = 1``) the test decides H0 with probability ``1 - P_F``, under H1
+    (``h = -1``) with ``P_M``; halfway (``h = 0``) it is a coin toss:
+
+    >>> g0, g1 = sprt_thresholds(0.01, 0.01)
+    >>> np.round(wald_oc(np.array([1.0, 0.0, -1.0]), g0, g1), 4)
+    array([0.99, 0.5 , 0.01])
     """
     g0, g1 = _check_thresholds(gamma0, gamma1)
     scalar = np.ndim(h) == 0
@@ -280,6 +370,14 @@ def wald_asn(mean_increment, gamma0, gamma1, p_decide_h0):
     ``((1 - P_F) gamma0 + P_F gamma1) / E[lambda | H0]``, the ratio of
     :func:`wald_expected_stopping_llr` to the mean increment (Wald's identity).  ``mean_increment``
     must be non-zero (use :func:`wald_gaussian_oc_asn` for the zero-drift limit).
+
+    Examples
+    --------
+    Increments of mean -0.5 under H0: about nine scans to a decision:
+
+    >>> g0, g1 = sprt_thresholds(0.01, 0.01)
+    >>> round(wald_asn(-0.5, g0, g1, p_decide_h0=0.99), 3)
+    9.006
     """
     mu = as_scalar(mean_increment, "mean_increment")
     if mu == 0.0:
@@ -298,6 +396,17 @@ def wald_gaussian_oc_asn(mean, var, gamma0, gamma1):
 
     ``h = -2 mean / var``; returns ``(P(decide H0), ASN)``.  At ``mean = 0`` the
     ASN is ``-gamma0 gamma1 / var``.
+
+    Examples
+    --------
+    ``N(-1/2, 1)`` increments are the exact LLR of a unit shift under H0; zero drift
+    takes longer:
+
+    >>> g0, g1 = sprt_thresholds(0.01, 0.01)
+    >>> np.round(wald_gaussian_oc_asn(-0.5, 1.0, g0, g1), 3)
+    array([0.99 , 9.006])
+    >>> np.round(wald_gaussian_oc_asn(0.0, 1.0, g0, g1), 3)
+    array([ 0.5  , 21.115])
     """
     mu = as_scalar(mean, "mean")
     v = as_scalar(var, "var")
@@ -322,6 +431,17 @@ def first_crossing_scan(path, level):
     one from below.  Returns ``nan`` if the path never reaches it.  The paper
     reads such a crossing off the run-averaged Lambda (eq 29) and quotes it with
     one decimal (scan 5.4 in its Fig. 5).
+
+    Examples
+    --------
+    ``Lambda`` goes 1, 3, 5: it reaches 4 halfway between scans 2 and 3:
+
+    >>> first_crossing_scan([1.0, 3.0, 5.0], 4.0)
+    2.5
+    >>> first_crossing_scan([-1.0, -3.0], -2.0)  # a negative level from above
+    1.5
+    >>> first_crossing_scan([1.0, 2.0], 5.0)
+    nan
     """
     p = as_array(path, "path", ndim=1)
     lev = as_scalar(level, "level")
@@ -351,6 +471,14 @@ def gaussian_llr_walks(var, n_runs, n_scans, rng, h1_true=False):
     ``E[exp(Lambda(k)) | H0] = 1`` at every scan; it is the reference against which the
     book measures the calibration of an approximate statistic.  Returns an
     ``(n_runs, n_scans)`` array.
+
+    Examples
+    --------
+    Under H0 scan ``k``'s ``Lambda`` has mean ``-k v / 2`` and variance ``k v``:
+
+    >>> walks = gaussian_llr_walks(1.0, n_runs=2000, n_scans=30, rng=np.random.default_rng(0))
+    >>> walks.shape, np.round(walks[:, 9].mean(), 2), np.round(walks[:, 9].var(), 2)
+    ((2000, 30), np.float64(-4.99), np.float64(9.65))
     """
     n = as_count(n_runs, "n_runs")
     K = as_count(n_scans, "n_scans")
@@ -376,7 +504,17 @@ def gaussian_llr_walks(var, n_runs, n_scans, rng, h1_true=False):
 
 
 class SprtSummary(NamedTuple):
-    """Monte Carlo summary of SPRT runs whose true hypothesis is ``truth``."""
+    """Monte Carlo summary of SPRT runs whose true hypothesis is ``truth``.
+
+    Examples
+    --------
+    What :func:`sprt_summary` returns (a few of its fields):
+
+    >>> walks = gaussian_llr_walks(1.0, 2000, 30, np.random.default_rng(0))
+    >>> s = sprt_summary(walks, *sprt_thresholds(0.01, 0.01), truth=SPRT_H0)
+    >>> s.n_runs, s.counts_correct.shape
+    (2000, (30,))
+    """
     n_runs: int
     p_correct: float          # fraction deciding the true hypothesis
     p_wrong: float            # fraction deciding the other one
@@ -397,6 +535,19 @@ def sprt_summary(llr, gamma0, gamma1, truth=SPRT_H0):
     mean-Lambda crossing is the first scan at which the average of ``llr`` over
     the runs (paper eq 29) reaches ``gamma0`` or ``gamma1``; it is given both as
     a whole scan and interpolated (:func:`first_crossing_scan`).
+
+    Examples
+    --------
+    2000 exact-LLR walks under H0 with 1 % thresholds: about 98 % decide H0, 0.3 %
+    decide H1 (under the 1 % design), the rest are undecided after 30 scans; the
+    mean decision scan exceeds Wald's 9.0, which neglects the overshoot:
+
+    >>> walks = gaussian_llr_walks(1.0, 2000, 30, np.random.default_rng(0))
+    >>> s = sprt_summary(walks, *sprt_thresholds(0.01, 0.01), truth=SPRT_H0)
+    >>> round(s.p_correct, 4), round(s.p_wrong, 4), round(s.p_undecided, 4)
+    (0.9785, 0.003, 0.0185)
+    >>> round(s.mean_scan, 2), s.mean_llr_crossing, round(s.mean_llr_crossing_scan, 2)
+    (10.07, 10, 9.23)
     """
     L = as_array(llr, "llr", ndim=2)
     if truth not in (SPRT_H0, SPRT_H1) or isinstance(truth, bool):

@@ -41,6 +41,28 @@ class StaleResultsError(LookupError):
     """A store is missing, or was made for another configuration, seed or version.
 
     ``command`` is the exact shell command that regenerates it.
+
+    Examples
+    --------
+    Raised by :func:`load` for a store that does not fit; the message ends with the
+    command that regenerates it:
+
+    >>> @dataclass(frozen=True)
+    ... class Toy:
+    ...     mean: float = 1.0
+    >>> toy = Experiment("toy", "one normal draw", trial=lambda rng, mean: rng.normal(mean),
+    ...                  call=lambda c: ((), {"mean": c.mean}), extract=lambda r, c: {"x": r},
+    ...                  config=Toy(), seed=7, runs=20, version="1")
+    >>> import tempfile
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> res = run_experiment(toy, out=Path(tmp.name) / "toy.parquet", progress=False)
+    >>> load(toy, runs=50, path=res.path)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+        ...
+    trackcore.experiments._core.StaleResultsError: The stored results ... of 'toy' are stale: it holds 20 runs, 50 are requested.
+    Regenerate it with:
+        python -m trackcore.experiments run toy --runs 50 --out .../toy.parquet
+    >>> tmp.cleanup()
     """
 
     def __init__(self, message, command):
@@ -49,15 +71,49 @@ class StaleResultsError(LookupError):
 
 
 class MissingResultsError(StaleResultsError):
-    """No store file at the expected path."""
+    """No store file at the expected path.
+
+    Examples
+    --------
+    >>> @dataclass(frozen=True)
+    ... class Toy:
+    ...     mean: float = 1.0
+    >>> toy = Experiment("toy", "one normal draw", trial=lambda rng, mean: rng.normal(mean),
+    ...                  call=lambda c: ((), {"mean": c.mean}), extract=lambda r, c: {"x": r},
+    ...                  config=Toy(), seed=7, runs=20, version="1")
+    >>> try:
+    ...     load(toy, path="no-such-dir/toy.parquet")
+    ... except MissingResultsError as exc:
+    ...     print(exc.command)
+    python -m trackcore.experiments run toy --out no-such-dir/toy.parquet
+    >>> issubclass(MissingResultsError, StaleResultsError)
+    True
+    """
 
 
 class VerificationError(AssertionError):
-    """A re-simulated run does not reproduce its stored row."""
+    """A re-simulated run does not reproduce its stored row.
+
+    Examples
+    --------
+    Raised by :func:`compare_rows` (and so :func:`verify_sample`) at the first mismatch:
+
+    >>> compare_rows({"x": np.float64(1.0)}, {"x": np.float64(1.1)}, run=3)
+    Traceback (most recent call last):
+        ...
+    trackcore.experiments._core.VerificationError: run 3, column 'x': stored np.float64(1.0), recomputed np.float64(1.1) (relative tolerance 1e-06)
+    """
 
 
 def results_dir() -> Path:
-    """The store directory: ``$TRACKCORE_RESULTS`` if set, else ``<repository>/results``."""
+    """The store directory: ``$TRACKCORE_RESULTS`` if set, else ``<repository>/results``.
+
+    Examples
+    --------
+    >>> import os
+    >>> os.environ.get("TRACKCORE_RESULTS") or results_dir().name
+    'results'
+    """
     env = os.environ.get("TRACKCORE_RESULTS")
     return Path(env) if env else _REPO_ROOT / "results"
 
@@ -94,7 +150,23 @@ def _same_config(book, other, rtol=FLOAT_RTOL) -> bool:
 
 
 def config_hash(config) -> str:
-    """SHA-256 (hex, 16 digits) of the canonical JSON of a config record."""
+    """SHA-256 (hex, 16 digits) of the canonical JSON of a config record.
+
+    Examples
+    --------
+    The hash identifies a config: it changes with any field and names the local stores:
+
+    >>> @dataclass(frozen=True)
+    ... class Toy:
+    ...     mean: float = 1.0
+    >>> toy = Experiment("toy", "one normal draw", trial=lambda rng, mean: rng.normal(mean),
+    ...                  call=lambda c: ((), {"mean": c.mean}), extract=lambda r, c: {"x": r},
+    ...                  config=Toy(), seed=7, runs=20, version="1")
+    >>> config_hash(Toy()), config_hash(Toy(mean=2.0))
+    ('0dcd7403a9d0603b', 'f4273bd42fd4dd63')
+    >>> toy.default_path(Toy(mean=2.0)).name
+    'toy-f4273bd42fd4dd63-seed7.parquet'
+    """
     text = json.dumps(_canonical(config), sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -104,6 +176,11 @@ def code_version() -> str:
 
     Recorded in every store for the record; it is *not* part of the staleness check
     (it changes with every commit): the sampled re-simulation catches code drift.
+
+    Examples
+    --------
+    >>> code_version()  # doctest: +ELLIPSIS
+    'trackcore ...'
     """
     out = f"trackcore {__version__}"
     try:
@@ -134,6 +211,24 @@ class Experiment:
     ``m`` rows of a store of ``n >= m`` runs are the rows of an ``m``-run experiment.
     ``version`` is bumped by hand whenever the trial's or the extractor's meaning
     changes; a store with another version is refused.
+
+    Examples
+    --------
+    A toy experiment, not registered (:func:`register` adds one to the book's list):
+    run ``i`` draws one normal number with ``rng`` seeded from ``(seed, i)``.
+
+    >>> @dataclass(frozen=True)
+    ... class Toy:
+    ...     mean: float = 1.0
+    >>> toy = Experiment("toy", "one normal draw", trial=lambda rng, mean: rng.normal(mean),
+    ...                  call=lambda c: ((), {"mean": c.mean}), extract=lambda r, c: {"x": r},
+    ...                  config=Toy(), seed=7, runs=20, version="1")
+    >>> toy.row(np.random.default_rng(0), toy.config)
+    {'x': 1.1257302210933933}
+    >>> toy.default_path().relative_to(results_dir())
+    PosixPath('toy.parquet')
+    >>> toy.command(runs=50, seed=1)
+    'python -m trackcore.experiments run toy --runs 50 --seed 1'
     """
 
     name: str
@@ -230,6 +325,23 @@ def compute_rows(experiment, config, seed, runs, *, indices=None, executor=None,
 
     All runs go through :func:`trackcore.montecarlo.run` (same seeding); ``indices``
     re-computes chosen runs of a ``runs``-run experiment the same way.
+
+    Examples
+    --------
+    Rows do not depend on how many runs are asked for: run 2 alone is run 2 of three:
+
+    >>> @dataclass(frozen=True)
+    ... class Toy:
+    ...     mean: float = 1.0
+    >>> toy = Experiment("toy", "one normal draw", trial=lambda rng, mean: rng.normal(mean),
+    ...                  call=lambda c: ((), {"mean": c.mean}), extract=lambda r, c: {"x": r},
+    ...                  config=Toy(), seed=7, runs=20, version="1")
+    >>> rows, cpu_seconds = compute_rows(toy, toy.config, seed=7, runs=3)
+    >>> [round(r["x"], 4) for r in rows]
+    [0.3699, 2.4019, 1.0395]
+    >>> rows, _ = compute_rows(toy, toy.config, seed=7, runs=20, indices=[2])
+    >>> round(rows[0]["x"], 4)
+    1.0395
     """
     from .. import montecarlo
 
@@ -287,7 +399,25 @@ def _columns(rows):
 
 def write_store(path, experiment, config, seed, rows, *, wall_seconds, cpu_seconds,
                 executor_desc="serial"):
-    """Write ``rows`` to a Parquet file with the experiment's metadata; returns the path."""
+    """Write ``rows`` to a Parquet file with the experiment's metadata; returns the path.
+
+    Examples
+    --------
+    >>> @dataclass(frozen=True)
+    ... class Toy:
+    ...     mean: float = 1.0
+    >>> toy = Experiment("toy", "one normal draw", trial=lambda rng, mean: rng.normal(mean),
+    ...                  call=lambda c: ((), {"mean": c.mean}), extract=lambda r, c: {"x": r},
+    ...                  config=Toy(), seed=7, runs=20, version="1")
+    >>> import tempfile
+    >>> rows, cpu = compute_rows(toy, toy.config, seed=7, runs=3)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = write_store(Path(tmp) / "toy.parquet", toy, toy.config, 7, rows,
+    ...                        wall_seconds=0.1, cpu_seconds=cpu)
+    ...     meta = read_metadata(path)
+    >>> meta["experiment"], meta["runs"], meta["seed"], meta["config"], meta["columns"]
+    ('toy', 3, 7, {'mean': 1.0}, {'x': [[], '<f8']})
+    """
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -340,7 +470,24 @@ def write_store(path, experiment, config, seed, rows, *, wall_seconds, cpu_secon
 
 
 def read_metadata(path) -> dict:
-    """The metadata of a store file (no data read)."""
+    """The metadata of a store file (no data read).
+
+    Examples
+    --------
+    >>> @dataclass(frozen=True)
+    ... class Toy:
+    ...     mean: float = 1.0
+    >>> toy = Experiment("toy", "one normal draw", trial=lambda rng, mean: rng.normal(mean),
+    ...                  call=lambda c: ((), {"mean": c.mean}), extract=lambda r, c: {"x": r},
+    ...                  config=Toy(), seed=7, runs=20, version="1")
+    >>> import tempfile
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> res = run_experiment(toy, out=Path(tmp.name) / "toy.parquet", progress=False)
+    >>> meta = read_metadata(res.path)
+    >>> meta["experiment"], meta["version"], meta["runs"], meta["config_hash"]
+    ('toy', '1', 20, '0dcd7403a9d0603b')
+    >>> tmp.cleanup()
+    """
     import pyarrow.parquet as pq
 
     md = pq.read_schema(path).metadata or {}
@@ -350,7 +497,29 @@ def read_metadata(path) -> dict:
 
 
 class Results:
-    """Stored rows of one experiment: ``res[column]`` is an array with runs first."""
+    """Stored rows of one experiment: ``res[column]`` is an array with runs first.
+
+    Examples
+    --------
+    >>> @dataclass(frozen=True)
+    ... class Toy:
+    ...     mean: float = 1.0
+    >>> toy = Experiment("toy", "one normal draw", trial=lambda rng, mean: rng.normal(mean),
+    ...                  call=lambda c: ((), {"mean": c.mean}), extract=lambda r, c: {"x": r},
+    ...                  config=Toy(), seed=7, runs=20, version="1")
+    >>> import tempfile
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> res = run_experiment(toy, out=Path(tmp.name) / "toy.parquet", progress=False)
+    >>> res.runs, "x" in res, res.is_book
+    (20, True, True)
+    >>> np.round(res["x"][:3], 4)
+    array([0.3699, 2.4019, 1.0395])
+    >>> res["y"]
+    Traceback (most recent call last):
+        ...
+    KeyError: "toy has no column 'y'; columns: ['run', 'x']"
+    >>> tmp.cleanup()
+    """
 
     def __init__(self, experiment, meta, columns, path, config, from_store=True):
         self.experiment = experiment
@@ -410,7 +579,29 @@ def _read_columns(path, runs=None):
 
 def check_store(experiment, path, config, seed, runs):
     """Raise :class:`StaleResultsError` unless ``path`` holds at least ``runs`` runs of
-    ``experiment`` at ``config``, ``seed`` and the current version; returns its metadata."""
+    ``experiment`` at ``config``, ``seed`` and the current version; returns its metadata.
+
+    Examples
+    --------
+    >>> @dataclass(frozen=True)
+    ... class Toy:
+    ...     mean: float = 1.0
+    >>> toy = Experiment("toy", "one normal draw", trial=lambda rng, mean: rng.normal(mean),
+    ...                  call=lambda c: ((), {"mean": c.mean}), extract=lambda r, c: {"x": r},
+    ...                  config=Toy(), seed=7, runs=20, version="1")
+    >>> import tempfile
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> res = run_experiment(toy, out=Path(tmp.name) / "toy.parquet", progress=False)
+    >>> check_store(toy, res.path, toy.config, seed=7, runs=10)["runs"]
+    20
+    >>> check_store(toy, res.path, toy.config, seed=8, runs=10)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+        ...
+    trackcore.experiments._core.StaleResultsError: The stored results ... are stale: its seed is 7, not 8.
+    Regenerate it with:
+        python -m trackcore.experiments run toy --runs 10 --seed 8 --out .../toy.parquet
+    >>> tmp.cleanup()
+    """
     overrides = _overrides_of(experiment, config)
     cmd = experiment.command(max(runs, experiment.runs) if config == experiment.config
                              and seed == experiment.seed else runs, seed, overrides, path)
@@ -455,6 +646,24 @@ def load(name, *, runs=None, seed=None, overrides=None, path=None) -> Results:
     :meth:`Experiment.default_path`.  Raises :class:`StaleResultsError` (with the command
     that regenerates the store) if the file is missing or was made for another config,
     seed or experiment version, or holds fewer runs.
+
+    Examples
+    --------
+    The first ``runs`` rows of a store (here a temporary one; by default the book's):
+
+    >>> @dataclass(frozen=True)
+    ... class Toy:
+    ...     mean: float = 1.0
+    >>> toy = Experiment("toy", "one normal draw", trial=lambda rng, mean: rng.normal(mean),
+    ...                  call=lambda c: ((), {"mean": c.mean}), extract=lambda r, c: {"x": r},
+    ...                  config=Toy(), seed=7, runs=20, version="1")
+    >>> import tempfile
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> res = run_experiment(toy, out=Path(tmp.name) / "toy.parquet", progress=False)
+    >>> first = load(toy, runs=5, path=res.path)
+    >>> first.runs, np.round(first["x"][:3], 4)
+    (5, array([0.3699, 2.4019, 1.0395]))
+    >>> tmp.cleanup()
     """
     experiment = get(name)
     config = experiment.configure(overrides)
@@ -468,7 +677,20 @@ def load(name, *, runs=None, seed=None, overrides=None, path=None) -> Results:
 
 def run_experiment(name, *, runs=None, seed=None, overrides=None, executor=None,
                    executor_desc=None, out=None, progress=True, write=True) -> Results:
-    """Compute an experiment's rows (on ``executor``) and, with ``write``, store them."""
+    """Compute an experiment's rows (on ``executor``) and, with ``write``, store them.
+
+    Examples
+    --------
+    >>> @dataclass(frozen=True)
+    ... class Toy:
+    ...     mean: float = 1.0
+    >>> toy = Experiment("toy", "one normal draw", trial=lambda rng, mean: rng.normal(mean),
+    ...                  call=lambda c: ((), {"mean": c.mean}), extract=lambda r, c: {"x": r},
+    ...                  config=Toy(), seed=7, runs=20, version="1")
+    >>> res = run_experiment(toy, runs=4, write=False, progress=False)
+    >>> res.runs, res.from_store, np.round(res["x"], 4)
+    (4, False, array([ 0.3699,  2.4019,  1.0395, -0.0158]))
+    """
     experiment = get(name)
     config = experiment.configure(overrides)
     seed = experiment.seed if seed is None else as_int(seed, "seed", minimum=0)
@@ -501,6 +723,28 @@ def obtain(name, *, runs=None, seed=None, overrides=None, executor=None):
     else a live computation; either way a note says that the book's stored results were
     not used.  A smaller run count of the book's config uses the first ``runs`` stored
     rows, with a note.
+
+    Examples
+    --------
+    The book's config needs its store (here there is none); another seed is computed
+    now, with a note:
+
+    >>> @dataclass(frozen=True)
+    ... class Toy:
+    ...     mean: float = 1.0
+    >>> toy = Experiment("toy", "one normal draw", trial=lambda rng, mean: rng.normal(mean),
+    ...                  call=lambda c: ((), {"mean": c.mean}), extract=lambda r, c: {"x": r},
+    ...                  config=Toy(), seed=7, runs=20, version="1")
+    >>> obtain(toy)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+        ...
+    trackcore.experiments._core.MissingResultsError: No stored results for experiment 'toy' at .../toy.parquet.
+    Regenerate it with:
+        python -m trackcore.experiments run toy
+    >>> res = obtain(toy, runs=3, seed=1)  # doctest: +ELLIPSIS
+    Note: ... is not at the book's configuration: the book's stored results were not used; computing 3 runs now (to store them: python -m trackcore.experiments run toy --runs 3 --seed 1).
+    >>> res.runs, res.from_store
+    (3, False)
     """
     experiment = get(name)
     config = experiment.configure(overrides)
@@ -547,7 +791,24 @@ def obtain(name, *, runs=None, seed=None, overrides=None, executor=None):
 # ---------------------------------------------------------------------------- verification
 @dataclass(frozen=True)
 class Verification:
-    """Outcome of :func:`verify_sample`; ``str()`` does not depend on the sample drawn."""
+    """Outcome of :func:`verify_sample`; ``str()`` does not depend on the sample drawn.
+
+    Examples
+    --------
+    What :func:`verify_sample` returns:
+
+    >>> @dataclass(frozen=True)
+    ... class Toy:
+    ...     mean: float = 1.0
+    >>> toy = Experiment("toy", "one normal draw", trial=lambda rng, mean: rng.normal(mean),
+    ...                  call=lambda c: ((), {"mean": c.mean}), extract=lambda r, c: {"x": r},
+    ...                  config=Toy(), seed=7, runs=20, version="1")
+    >>> v = verify_sample(run_experiment(toy, runs=20, write=False, progress=False), indices=[0, 5])
+    >>> v.checked, v.indices, v.rtol
+    (2, (0, 5), 1e-06)
+    >>> print(v)
+    toy: re-simulated 2 of 20 stored runs (a fresh random sample): all match
+    """
 
     experiment: str
     checked: int
@@ -566,7 +827,19 @@ class Verification:
 
 def sample_size(runs, fraction=0.01, minimum=10) -> int:
     """How many runs :func:`verify_sample` checks: ``max(minimum, ceil(fraction * runs))``,
-    at most ``runs``."""
+    at most ``runs``.
+
+    Examples
+    --------
+    At least 10 runs and 1 % of them:
+
+    >>> sample_size(1000), sample_size(5000), sample_size(5)
+    (10, 50, 5)
+    >>> sample_size(100, fraction=0.0)
+    Traceback (most recent call last):
+        ...
+    ValueError: fraction must be in (0, 1], got 0.0
+    """
     runs = as_count(runs, "runs")
     minimum = as_int(minimum, "minimum", minimum=0)
     if not (0.0 < float(fraction) <= 1.0):
@@ -591,7 +864,18 @@ def matches(stored, fresh, rtol=FLOAT_RTOL) -> bool:
     integers and booleans equal, floats within relative tolerance ``rtol`` of the stored
     value (default ``FLOAT_RTOL``).  For a notebook's check that a rebuilt run is a stored
     one: the bits may differ on another CPU (numpy's and OpenBLAS's kernels with and
-    without AVX-512 round differently), the rule's verdict does not."""
+    without AVX-512 round differently), the rule's verdict does not.
+
+    Examples
+    --------
+    A float within the relative tolerance matches, a larger change does not; integers
+    must be equal:
+
+    >>> matches(1.0, 1.0 + 1e-9), matches(1.0, 1.001)
+    (True, False)
+    >>> matches(np.array([1, 2]), np.array([1, 3]))
+    False
+    """
     a, b = np.asarray(stored), np.asarray(fresh)
     rtol = float(rtol)
     if not (0.0 <= rtol < 1.0):
@@ -605,6 +889,15 @@ def compare_rows(stored, fresh, run, rtol=FLOAT_RTOL):
     Integer and boolean columns must be equal bit for bit; floating-point columns
     within relative tolerance ``rtol`` element by element (NaN where and only where
     the stored value is NaN, infinities equal).
+
+    Examples
+    --------
+    >>> compare_rows({"n": np.int64(4), "x": np.float64(2.0)},
+    ...              {"n": np.int64(4), "x": np.float64(2.0 + 1e-12)}, run=0)  # passes: None
+    >>> compare_rows({"n": np.int64(4)}, {"n": np.int64(5)}, run=0)
+    Traceback (most recent call last):
+        ...
+    trackcore.experiments._core.VerificationError: run 0, column 'n': stored np.int64(4), recomputed np.int64(5) (must be equal)
     """
     if set(stored) != set(fresh):
         raise VerificationError(f"run {run}: columns differ: stored {sorted(stored)}, "
@@ -634,6 +927,24 @@ def verify_sample(results, *, fraction=0.01, minimum=10, indices=None, executor=
     Raises :class:`VerificationError` naming the run, column, stored and recomputed
     values at the first mismatch; returns a :class:`Verification` whose text is the same
     whichever runs were drawn.
+
+    Examples
+    --------
+    A fresh random sample of 10 of the 20 runs of a temporary store is re-simulated; its
+    text does not depend on the sample:
+
+    >>> @dataclass(frozen=True)
+    ... class Toy:
+    ...     mean: float = 1.0
+    >>> toy = Experiment("toy", "one normal draw", trial=lambda rng, mean: rng.normal(mean),
+    ...                  call=lambda c: ((), {"mean": c.mean}), extract=lambda r, c: {"x": r},
+    ...                  config=Toy(), seed=7, runs=20, version="1")
+    >>> import tempfile
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> res = run_experiment(toy, out=Path(tmp.name) / "toy.parquet", progress=False)
+    >>> print(verify_sample(res))
+    toy: re-simulated 10 of 20 stored runs (a fresh random sample): all match
+    >>> tmp.cleanup()
     """
     res = load(results) if isinstance(results, str) else results
     if not isinstance(res, Results):
@@ -663,7 +974,22 @@ _REGISTRY: dict[str, Experiment] = {}
 
 
 def register(experiment: Experiment) -> Experiment:
-    """Add an experiment to the registry (names are unique)."""
+    """Add an experiment to the registry (names are unique).
+
+    Examples
+    --------
+    Names are unique: the book's experiments are registered when
+    :mod:`trackcore.experiments` is imported.
+
+    >>> register(get("hpda-mc-case1"))
+    Traceback (most recent call last):
+        ...
+    ValueError: an experiment named 'hpda-mc-case1' is already registered
+    >>> register("hpda-mc-case1")
+    Traceback (most recent call last):
+        ...
+    TypeError: experiment must be an Experiment, got str
+    """
     if not isinstance(experiment, Experiment):
         raise TypeError(f"experiment must be an Experiment, got {type(experiment).__name__}")
     if experiment.name in _REGISTRY:
@@ -673,7 +999,18 @@ def register(experiment: Experiment) -> Experiment:
 
 
 def get(name) -> Experiment:
-    """The registered experiment ``name``."""
+    """The registered experiment ``name``.
+
+    Examples
+    --------
+    >>> e = get("hpda-mc-case1")
+    >>> e.name, e.runs
+    ('hpda-mc-case1', 100)
+    >>> get("no-such-experiment")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+        ...
+    ValueError: unknown experiment 'no-such-experiment'; registered: ...
+    """
     if isinstance(name, Experiment):
         return name
     if not isinstance(name, str):
@@ -686,12 +1023,32 @@ def get(name) -> Experiment:
 
 
 def names() -> list:
-    """Names of the registered experiments, in registration order."""
+    """Names of the registered experiments, in registration order.
+
+    Examples
+    --------
+    >>> names()[:3]
+    ['hpda-mc-case1', 'hpda-mc-case2', 'hpda-mc-case3']
+    """
     return list(_REGISTRY)
 
 
 def status(name) -> str:
-    """``current``, ``missing`` or ``stale: <reason>`` for the book store of ``name``."""
+    """``current``, ``missing`` or ``stale: <reason>`` for the book store of ``name``.
+
+    Examples
+    --------
+    A toy experiment has no store under ``results/``:
+
+    >>> @dataclass(frozen=True)
+    ... class Toy:
+    ...     mean: float = 1.0
+    >>> toy = Experiment("toy", "one normal draw", trial=lambda rng, mean: rng.normal(mean),
+    ...                  call=lambda c: ((), {"mean": c.mean}), extract=lambda r, c: {"x": r},
+    ...                  config=Toy(), seed=7, runs=20, version="1")
+    >>> status(toy)
+    'missing'
+    """
     e = get(name)
     try:
         check_store(e, e.default_path(), e.config, e.seed, e.runs)

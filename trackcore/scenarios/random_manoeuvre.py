@@ -46,7 +46,16 @@ __all__ = [
 
 
 class RandomManoeuvre(NamedTuple):
-    """A sampled random-manoeuvre trajectory (``n`` samples, period ``dt``)."""
+    """A sampled random-manoeuvre trajectory (``n`` samples, period ``dt``).
+
+    Examples
+    --------
+    What :func:`random_manoeuvre_xy` and :func:`random_manoeuvre_turn` return:
+
+    >>> tr = random_manoeuvre_xy(np.random.default_rng(0), n=100)
+    >>> tr.t.shape, tr.position.shape, tr.velocity.shape, tr.accel_xy.shape, tr.accel_fs.shape
+    ((100,), (100, 2), (100, 2), (100, 2), (100, 2))
+    """
     t: np.ndarray          # (n,) s
     position: np.ndarray   # (n, 2) m
     velocity: np.ndarray   # (n, 2) m/s
@@ -115,7 +124,18 @@ def _turn_kernel(af, w_omega, dt, speed0, omega_max, vmin, vmax, pos, vel, acc):
 
 def forward_lateral(accel_xy, velocity):
     """Project accelerations ``(n, 2)`` on the velocity heading: ``[a_f, a_s]``
-    with ``a_s`` positive to the right (``R(psi) [a_x, a_y]``, TOM convention)."""
+    with ``a_s`` positive to the right (``R(psi) [a_x, a_y]``, TOM convention).
+
+    Examples
+    --------
+    Moving along +x, an acceleration along +x is forward and one along -y is lateral to
+    the right:
+
+    >>> accel, velocity = np.array([[1.0, 0.0], [0.0, -2.0]]), np.array([[10.0, 0.0], [10.0, 0.0]])
+    >>> forward_lateral(accel, velocity) + 0.0
+    array([[1., 0.],
+           [0., 2.]])
+    """
     a = as_array(accel_xy, "accel_xy", ndim=2)
     v = as_array(velocity, "velocity", shape=a.shape)
     if a.shape[1] != 2:
@@ -142,6 +162,15 @@ def random_manoeuvre_xy(rng, n=10_000, dt=1.0, sigma_w=2.0, mean_duration=20.0, 
     Each axis has its own segments (durations ``max(1, Poisson(mean_duration))``
     samples) and its walk restarts from 0 at each segment start; increments are
     ``N(0, sigma_w^2)`` (m/s^2 per step).  Returns :class:`RandomManoeuvre`.
+
+    Examples
+    --------
+    1000 s of scenario 1 from 200 m/s along +x; the accelerations are walks of
+    ``N(0, 2^2)`` steps restarted every ~20 samples:
+
+    >>> tr = random_manoeuvre_xy(np.random.default_rng(0), n=1000)
+    >>> np.round(tr.velocity[0], 1), np.round(np.abs(tr.accel_xy).mean(axis=0), 2)
+    (array([200.,   0.]), array([5.01, 4.5 ]))
     """
     rng, n, dt, mean_duration = _common(rng, n, dt, mean_duration)
     sigma_w = as_nonnegative(sigma_w, "sigma_w")
@@ -164,6 +193,17 @@ def random_manoeuvre_turn(rng, n=10_000, dt=1.0, sigma_wf=1.3, sigma_womega=0.00
     ``omega`` (rad/s) is never reset (increments ``sigma_womega``) and is
     reflected into ``[-omega_max, omega_max]``; the speed is clipped to
     ``speed_limits``.  Returns :class:`RandomManoeuvre`.
+
+    Examples
+    --------
+    Scenario 2 keeps the speed within its limits:
+
+    >>> tr = random_manoeuvre_turn(np.random.default_rng(0), n=1000)
+    >>> speed = np.hypot(*tr.velocity.T)
+    >>> round(float(speed.min()), 1) >= 50.0, round(float(speed.max()), 1) <= 400.0
+    (True, True)
+    >>> np.round(np.abs(tr.accel_fs).mean(axis=0), 2)  # mean |a_f|, |a_s| (m/s^2)
+    array([2.1 , 7.31])
     """
     rng, n, dt, mean_duration = _common(rng, n, dt, mean_duration)
     sigma_wf = as_nonnegative(sigma_wf, "sigma_wf")
@@ -185,7 +225,19 @@ def random_manoeuvre_turn(rng, n=10_000, dt=1.0, sigma_wf=1.3, sigma_womega=0.00
 
 def cross_correlation_coefficient(u, v, max_lag=60):
     """``rho_uv(tau) = 1/(N - |tau|) sum_k (u_k - ubar)(v_{k+tau} - vbar) / (s_u s_v)``
-    for ``tau = -max_lag .. max_lag``; returns ``(lags, rho)``."""
+    for ``tau = -max_lag .. max_lag``; returns ``(lags, rho)``.
+
+    Examples
+    --------
+    A series against itself delayed by 3 samples peaks at lag 3:
+
+    >>> u = np.random.default_rng(0).standard_normal(500)
+    >>> lags, rho = cross_correlation_coefficient(u[3:], u[:-3], max_lag=5)
+    >>> lags
+    array([-5, -4, -3, -2, -1,  0,  1,  2,  3,  4,  5])
+    >>> int(lags[np.argmax(rho)]), round(float(rho.max()), 2)
+    (3, 1.0)
+    """
     u = as_array(u, "u", ndim=1)
     v = as_array(v, "v", shape=u.shape)
     N = u.size
