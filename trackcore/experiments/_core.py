@@ -756,7 +756,7 @@ def obtain(name, *, runs=None, seed=None, overrides=None, executor=None):
         stored = read_metadata(path)["runs"]
         if runs > stored:
             res = load(name, runs=stored, seed=seed)
-            print(f"Note: {name} with {runs} runs, not the book's {experiment.runs}: the "
+            print(f"Note: {experiment.name} with {runs} runs, not the book's {experiment.runs}: the "
                   f"book's stored results were not used as they stand; runs {stored} to "
                   f"{runs - 1} are computed now and added to the {stored} stored runs (to "
                   f"store them: {experiment.command(runs)}).")
@@ -769,19 +769,19 @@ def obtain(name, *, runs=None, seed=None, overrides=None, executor=None):
             return Results(experiment, meta, cols, path, config)
         res = load(name, runs=runs, seed=seed)
         if runs != experiment.runs:
-            print(f"Note: {name} with {runs} runs, not the book's {experiment.runs}: the "
+            print(f"Note: {experiment.name} with {runs} runs, not the book's {experiment.runs}: the "
                   f"book's stored results were not used as they stand "
                   f"(the first {runs} stored runs are).")
         return res
     path = experiment.default_path(config, seed)
     try:
         res = load(name, runs=runs, seed=seed, overrides=overrides, path=path)
-        print(f"Note: {name} is not at the book's configuration: the book's stored results "
+        print(f"Note: {experiment.name} is not at the book's configuration: the book's stored results "
               f"were not used; rows read from {path}.")
         return res
     except StaleResultsError:
         pass
-    print(f"Note: {name} is not at the book's configuration: the book's stored results were "
+    print(f"Note: {experiment.name} is not at the book's configuration: the book's stored results were "
           f"not used; computing {runs} runs now (to store them: "
           f"{experiment.command(runs, seed, _overrides_of(experiment, config))}).")
     return run_experiment(name, runs=runs, seed=seed, overrides=overrides, executor=executor,
