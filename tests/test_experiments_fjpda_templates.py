@@ -97,7 +97,7 @@ def test_registry_and_configs():
 
 
 #: the scenes whose template stores are committed (the others are registered, not run)
-STORED = ("glare", "occlusion")
+STORED = ("glare", "occlusion", "side-by-side")
 
 
 @pytest.mark.skipif(status("fjpda-templates-occlusion") != "current",
@@ -132,3 +132,18 @@ def test_dup_crossings_are_the_3px_crossings():
     if status(e.name) == "current":
         row = e.row(generator_for_run(e.seed, 5, e.runs), e.config)
         assert row == load(e.name).row(5), "run 5 re-simulated"
+
+
+def test_occlusion_map_store():
+    """The committed map: 40 runs, every offset x tracker column, and blobs that merge
+    longer as the crossing offset falls (0 frames at 10 px)."""
+    name = "fjpda-occlusion-map"
+    assert status(name) == "current", status(name)
+    m, e = load(name), get(name)
+    assert m.runs == 40, m
+    for c in MAP_OFFSETS:
+        for label in e.config.variants():
+            for f in ("tmr_num", "tmr_den", "false_tracks"):
+                assert f"c{c:g}.{label}.{f}" in m.columns, (c, label, f)
+    merged = [np.mean(m[f"c{c:g}.merged"]) for c in MAP_OFFSETS]
+    assert merged[0] == 0 and np.all(np.diff(merged) > 0), merged
