@@ -50,7 +50,7 @@ from ._checks import check_names
 from ._core import Experiment, register
 from .registry import _Config
 
-__all__ = ["SprtCellsConfig", "cell_of", "decision_summary", "t10_cell"]
+__all__ = ["SprtCellsConfig", "calib_statistics", "cell_of", "decision_summary", "t10_cell"]
 
 SEED = 20261123  # the chapter's seed
 _NB06 = "book/002-sprt-acm/06-sensitivity.ipynb"
@@ -306,3 +306,68 @@ for _n in (2, 3):
         trial=_cells_trial, call=_cells_call, extract=_cells_extract,
         config=SprtCellsConfig(_n, cause_cells(_n)),
         seed=SEED + 3000 + _n, runs=5000, version="1", notebook=_NB06))
+
+
+#: The calibration decomposition (issue 27, declared before its runs): the S1 family's
+#: six cells (G-A first), on the 5000 runs of S1's verdicts (seed + 500).
+CALIB_GEOMETRIES = ((45.0, 0.0),) + FAMILY_S1
+#: the three statistics of a run: Lambda of eq (21), the decoy-filter pair
+#: Lambda_a1 - Lambda_b0 and the target-filter pair Lambda_b1 - Lambda_a0
+CALIB_STATS = ("full", "dec", "tgt")
+
+
+def calib_statistics(lam):
+    """The three statistics of :data:`CALIB_STATS` from ``lam[..., :] = [Lambda_a0,
+    Lambda_b0, Lambda_a1, Lambda_b1]``, stacked on a new last axis; the first is
+    :func:`~trackcore.trackers.sprt_acm_llr`'s eq (21), the sum of the other two."""
+    lam = np.asarray(lam, dtype=float)
+    if lam.ndim < 1 or lam.shape[-1] != 4:
+        raise ValueError(f"lam must have last dimension 4 (a0, b0, a1, b1), got shape "
+                         f"{lam.shape}")
+    dec = lam[..., 2] - lam[..., 1]
+    tgt = lam[..., 3] - lam[..., 0]
+    return np.stack([dec + tgt, dec, tgt], axis=-1)
+
+
+def _calib_trial(rng, scenario, cells, h1_true):
+    """One run of every cell from the same generator state: per cell and statistic the
+    SPRT's decision and scan at the cell's +-gamma and whether the statistic ever reaches
+    +gamma."""
+    shape = (len(cells), len(CALIB_STATS))
+    d = np.empty(shape, dtype=np.int8)
+    k = np.empty(shape, dtype=np.int16)
+    ever = np.empty(shape, dtype=np.int8)
+    state = rng.bit_generator.state
+    for j, c in enumerate(cells):
+        sc, cfg, truth = _cell(scenario, c)
+        rng.bit_generator.state = state
+        z = sprt_acm_measurements(sc, rng, truth, h1_true=h1_true)
+        out = sprt_acm_discriminate(z.z_pre, z.z_a, z.z_b, truth.own, sc.T, cfg)
+        if not bool(out.ok):
+            raise ValueError(f"cell {c!r}: a filter covariance lost positive definiteness")
+        stats = calib_statistics(out.lam)
+        for s in range(len(CALIB_STATS)):
+            d[j, s], k[j, s] = sprt_decide(stats[:, s], -sc.gamma, sc.gamma)
+            ever[j, s] = bool(np.any(stats[:, s] >= sc.gamma))
+    return d, k, ever
+
+
+def _calib_extract(out, config):
+    d, k, ever = out
+    cols = {}
+    for s, name in enumerate(CALIB_STATS):
+        cols[f"d_{name}"] = d[:, s]
+        cols[f"k_{name}"] = k[:, s]
+        cols[f"ever_{name}"] = ever[:, s]
+    return cols
+
+
+register(Experiment(
+    name="sprt-calib-s1-family",
+    description=("SPRT chapter, calibration of S1 over the declared family (45/0, 33.8/0, "
+                 "33.8/-15, 33.8/+15, 45/-15, 45/+15): decisions and 'ever reaches "
+                 "+gamma' of Lambda, its decoy-filter pair and its target-filter pair"),
+    trial=_calib_trial, call=_cells_call, extract=_calib_extract,
+    config=SprtCellsConfig(1, tuple(family_cell(1, a, lead)
+                                    for a, lead in CALIB_GEOMETRIES)),
+    seed=SEED + 500, runs=5000, version="1", notebook="book/002-sprt-acm/05-extensions.ipynb"))
