@@ -49,3 +49,30 @@ def test_bound_verdict_and_tag():
     assert geometry_tag(33.8, 15.0) == "a338_lp15", "positive lead"
     with pytest.raises(TypeError, match="alpha"):
         geometry_tag("45", 0.0)
+
+
+def test_filters_rows_are_the_notebook_runs():
+    """sprt-filters-s2's rows equal 06-sensitivity's direct batch computation."""
+    from trackcore.scenarios import sprt_acm_filter_config
+
+    e = get("sprt-filters-s2")
+    keys = [k for k, _ in S.filters_cells()]
+    assert keys[0] == ("prior", 2.0), "the paper's filters come first"
+    rows, _ = compute_rows(e, e.config, e.seed, 3)
+    c = _columns(rows)
+    sc = sprt_acm_scenario(2)
+    for key, ch in ((("prior", 2.0), {}), (("model", "boost", 0.2),
+                    dict(beta_std_factor=0.2, target_model="boost"))):
+        j = keys.index(key)
+        res = sprt_acm_monte_carlo(sc, 3, e.seed, config=sprt_acm_filter_config(sc, **ch))
+        d, k = sprt_decide(res.llr, -sc.gamma, sc.gamma)
+        assert np.array_equal(c["d"][:, j], d) and np.array_equal(c["k"][:, j], k), key
+        np.testing.assert_array_equal(c["tp8"][:, j], res.lam[:, 7, 3] - res.lam[:, 7, 0],
+                                      err_msg=f"{key}: target pair at k = 8")
+    acm = res.lam[..., 2] - res.lam[..., 1]
+    assert acm.shape == (3, sc.n_post), "one decoy-only statistic per run"
+
+
+def test_filters_cells_bad_change():
+    with pytest.raises(TypeError):
+        S.filters_cells({"beta_std_factor": 1.0})  # set twice in the prior cells
