@@ -76,3 +76,32 @@ def test_filters_rows_are_the_notebook_runs():
 def test_filters_cells_bad_change():
     with pytest.raises(TypeError):
         S.filters_cells({"beta_std_factor": 1.0})  # set twice in the prior cells
+
+
+@pytest.mark.parametrize("name, column", [("sprt-calib-s1-family", "ever_dec"),
+                                          ("sprt-filters-s3", "k_acm")])
+def test_a_corrupted_stored_row_is_caught(tmp_path, name, column):
+    import json
+    import shutil
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from trackcore.experiments import VerificationError, load, verify_sample
+    from trackcore.experiments._core import META_KEY
+
+    path = get(name).default_path()
+    bad = tmp_path / "bad.parquet"
+    shutil.copy(path, bad)
+    table = pq.read_table(path)
+    size = int(np.prod(json.loads(table.schema.metadata[META_KEY])["columns"][column][0]))
+    values = table.column(column).combine_chunks().flatten().to_numpy(
+        zero_copy_only=False).copy()
+    values[5 * size + 1] += 1
+    i = table.schema.get_field_index(column)
+    new = pa.FixedSizeListArray.from_arrays(pa.array(values), size)
+    pq.write_table(table.set_column(i, table.schema.field(i), new), bad)
+    good = verify_sample(load(name), indices=[5])  # the book's stored row is right
+    assert good.checked == 1, good
+    with pytest.raises(VerificationError, match=rf"run 5, column '{column}'\[1\]"):
+        verify_sample(load(name, path=bad), indices=[4, 5])
