@@ -32,7 +32,15 @@ and the chapter's declared geometry family (index, "Readings"; issue 27):
   end at t = 80 s (the target passes within 8 sigma_r of the pursuer after that);
 * ``sprt-cause-s2``, ``sprt-cause-s3``: the cause factorial (target filter CV / boost x
   prior 200 % / 20 % x 1/r free / >= 1/20 km x the 7 declared S2/S3 geometries), 5000
-  runs of their own seeds (seed + 3000 + n).
+  runs of their own seeds (seed + 3000 + n);
+* ``sprt-calib-s1-family``: the calibration over S1's declared family (G-A and the five
+  other cells): decisions and "ever reaches +gamma" of Lambda and of its decoy-filter and
+  target-filter pairs, on S1's 5000 verdict runs (seed + 500; 05-extensions);
+* ``sprt-filters-s1``, ``-s2``, ``-s3``: each scenario's settings of 06-sensitivity (the
+  prior of eq 28, the target filters at the printed and the 20 % prior, each decoy
+  filter's prior alone, the decoy's speed and sigma_v) on the 1000 runs of its seed
+  (seed + n), with the target-filter pair, a0's NIS, a1's sign of 1/r and the IMM's mode
+  probabilities, and the paper's filters decided at every threshold of MATCH_GAMMAS.
 """
 from __future__ import annotations
 
@@ -50,7 +58,7 @@ from ._checks import check_names
 from ._core import Experiment, register
 from .registry import _Config
 
-__all__ = ["SprtCellsConfig", "cell_of", "decision_summary", "t10_cell"]
+__all__ = ["SprtCellsConfig", "calib_statistics", "cell_of", "decision_summary", "t10_cell"]
 
 SEED = 20261123  # the chapter's seed
 _NB06 = "book/002-sprt-acm/06-sensitivity.ipynb"
@@ -306,3 +314,150 @@ for _n in (2, 3):
         trial=_cells_trial, call=_cells_call, extract=_cells_extract,
         config=SprtCellsConfig(_n, cause_cells(_n)),
         seed=SEED + 3000 + _n, runs=5000, version="1", notebook=_NB06))
+
+
+#: The calibration decomposition (issue 27, declared before its runs): the S1 family's
+#: six cells (G-A first), on the 5000 runs of S1's verdicts (seed + 500).
+CALIB_GEOMETRIES = ((45.0, 0.0),) + FAMILY_S1
+#: the three statistics of a run: Lambda of eq (21), the decoy-filter pair
+#: Lambda_a1 - Lambda_b0 and the target-filter pair Lambda_b1 - Lambda_a0
+CALIB_STATS = ("full", "dec", "tgt")
+
+
+def calib_statistics(lam):
+    """The three statistics of :data:`CALIB_STATS` from ``lam[..., :] = [Lambda_a0,
+    Lambda_b0, Lambda_a1, Lambda_b1]``, stacked on a new last axis; the first is
+    :func:`~trackcore.trackers.sprt_acm_llr`'s eq (21), the sum of the other two."""
+    lam = np.asarray(lam, dtype=float)
+    if lam.ndim < 1 or lam.shape[-1] != 4:
+        raise ValueError(f"lam must have last dimension 4 (a0, b0, a1, b1), got shape "
+                         f"{lam.shape}")
+    dec = lam[..., 2] - lam[..., 1]
+    tgt = lam[..., 3] - lam[..., 0]
+    return np.stack([dec + tgt, dec, tgt], axis=-1)
+
+
+def _calib_trial(rng, scenario, cells, h1_true):
+    """One run of every cell from the same generator state: per cell and statistic the
+    SPRT's decision and scan at the cell's +-gamma and whether the statistic ever reaches
+    +gamma."""
+    shape = (len(cells), len(CALIB_STATS))
+    d = np.empty(shape, dtype=np.int8)
+    k = np.empty(shape, dtype=np.int16)
+    ever = np.empty(shape, dtype=np.int8)
+    state = rng.bit_generator.state
+    for j, c in enumerate(cells):
+        sc, cfg, truth = _cell(scenario, c)
+        rng.bit_generator.state = state
+        z = sprt_acm_measurements(sc, rng, truth, h1_true=h1_true)
+        out = sprt_acm_discriminate(z.z_pre, z.z_a, z.z_b, truth.own, sc.T, cfg)
+        if not bool(out.ok):
+            raise ValueError(f"cell {c!r}: a filter covariance lost positive definiteness")
+        stats = calib_statistics(out.lam)
+        for s in range(len(CALIB_STATS)):
+            d[j, s], k[j, s] = sprt_decide(stats[:, s], -sc.gamma, sc.gamma)
+            ever[j, s] = bool(np.any(stats[:, s] >= sc.gamma))
+    return d, k, ever
+
+
+def _calib_extract(out, config):
+    d, k, ever = out
+    cols = {}
+    for s, name in enumerate(CALIB_STATS):
+        cols[f"d_{name}"] = d[:, s]
+        cols[f"k_{name}"] = k[:, s]
+        cols[f"ever_{name}"] = ever[:, s]
+    return cols
+
+
+register(Experiment(
+    name="sprt-calib-s1-family",
+    description=("SPRT chapter, calibration of S1 over the declared family (45/0, 33.8/0, "
+                 "33.8/-15, 33.8/+15, 45/-15, 45/+15): decisions and 'ever reaches "
+                 "+gamma' of Lambda, its decoy-filter pair and its target-filter pair"),
+    trial=_calib_trial, call=_cells_call, extract=_calib_extract,
+    config=SprtCellsConfig(1, tuple(family_cell(1, a, lead)
+                                    for a, lead in CALIB_GEOMETRIES)),
+    seed=SEED + 500, runs=5000, version="1", notebook="book/002-sprt-acm/05-extensions.ipynb"))
+
+
+#: 06-sensitivity's per-scenario settings on the 1000 runs of S_n's seed (SEED + n): the
+#: prior of eq (28) (factors of 1/z_r(1)), the target filters at the printed and the 20 %
+#: prior, each decoy filter's prior alone, and the other parameters.
+FILTER_FACTORS = (2.0, 1.0, 0.5, 0.2, 0.1)
+FILTER_ONE = {"a1": dict(beta_std_factor=2.0, beta_std_factor_a1=0.2),
+              "b0": dict(beta_std_factor=0.2, beta_std_factor_a1=2.0)}
+FILTER_CASES = {"decoy_6.4": ({"decoy_speed": 6.4}, {}),
+                "decoy_25.6": ({"decoy_speed": 25.6}, {}),
+                "sigma_v_1": ({}, {"sigma_v": 1.0}),
+                "sigma_v_4": ({}, {"sigma_v": 4.0})}
+#: the thresholds at which the first cell's full and decoy-only tests are decided
+MATCH_GAMMAS = tuple(float(g) for g in np.arange(1.0, 9.01, 0.25))
+
+
+def filters_cells(scenario_changes=None):
+    """The ``(key, cell)`` pairs of the per-scenario settings, the printed filters first:
+    ``("prior", f)``, ``("model", m, f)`` (m in :data:`T10_MODELS`, f 2.0 or 0.2),
+    ``("one", "a1" | "b0")``, ``("case", label)``, with ``scenario_changes`` (scenario
+    fields, e.g. ``{"decoy_speed": 10.0}``) in every cell (a case's own change wins)."""
+    sc = dict(scenario_changes or {})
+    out = [(("prior", f), cell_of(**sc, beta_std_factor=f)) for f in FILTER_FACTORS]
+    out += [(("model", m, f), cell_of(**sc, beta_std_factor=f, **T10_MODELS[m]))
+            for m in T10_MODELS for f in (2.0, 0.2)]
+    out += [(("one", w), cell_of(**sc, **ch)) for w, ch in FILTER_ONE.items()]
+    out += [(("case", lab), cell_of(**{**sc, **s}, **fch))
+            for lab, (s, fch) in FILTER_CASES.items()]
+    return out
+
+
+def _filters_trial(rng, scenario, cells, h1_true):
+    """One run of every cell from the same generator state: per cell the decisions of
+    Lambda and of the decoy-filter-only statistic at the cell's gamma, the target-filter
+    pair at scans 2 and 8, the NIS of a0 at scan 2, a1's 1/r < 0 at scan 4 and the IMM's
+    first four mode probabilities; for the first cell the decisions of both statistics at
+    every threshold of :data:`MATCH_GAMMAS`."""
+    nc, ng = len(cells), len(MATCH_GAMMAS)
+    r = {name: np.empty(nc, dtype=np.int8) for name in ("d", "d_acm", "neg_a1")}
+    r.update({name: np.empty(nc, dtype=np.int16) for name in ("k", "k_acm")})
+    r.update({name: np.empty(nc) for name in ("tp2", "tp8", "nis_a0_2")})
+    r["mu"] = np.empty((nc, 4))
+    for name in ("gd_full", "gd_acm"):
+        r[name] = np.empty(ng, dtype=np.int8)
+    for name in ("gk_full", "gk_acm"):
+        r[name] = np.empty(ng, dtype=np.int16)
+    state = rng.bit_generator.state
+    for j, c in enumerate(cells):
+        sc, cfg, truth = _cell(scenario, c)
+        rng.bit_generator.state = state
+        z = sprt_acm_measurements(sc, rng, truth, h1_true=h1_true)
+        out = sprt_acm_discriminate(z.z_pre, z.z_a, z.z_b, truth.own, sc.T, cfg)
+        if not bool(out.ok):
+            raise ValueError(f"cell {c!r}: a filter covariance lost positive definiteness")
+        acm = out.lam[:, 2] - out.lam[:, 1]
+        r["d"][j], r["k"][j] = sprt_decide(out.llr, -sc.gamma, sc.gamma)
+        r["d_acm"][j], r["k_acm"][j] = sprt_decide(acm, -sc.gamma, sc.gamma)
+        r["tp2"][j] = out.lam[1, 3] - out.lam[1, 0]
+        r["tp8"][j] = out.lam[7, 3] - out.lam[7, 0]
+        r["nis_a0_2"][j] = out.nis[1, 0]
+        r["neg_a1"][j] = out.beta[3, 1] < 0
+        r["mu"][j] = out.mu[:4, 0]
+        if j == 0:
+            for i, g in enumerate(MATCH_GAMMAS):
+                r["gd_full"][i], r["gk_full"][i] = sprt_decide(out.llr, -g, g)
+                r["gd_acm"][i], r["gk_acm"][i] = sprt_decide(acm, -g, g)
+    return r
+
+
+def _filters_extract(out, config):
+    return dict(out)
+
+
+for _n in (1, 2, 3):
+    register(Experiment(
+        name=f"sprt-filters-s{_n}",
+        description=(f"SPRT chapter, S{_n} on its 1000 verdict runs: the prior of eq (28), "
+                     "the target filters, each decoy filter's prior alone, the decoy's "
+                     "speed and sigma_v (decisions, target-filter pair, NIS, 1/r sign)"),
+        trial=_filters_trial, call=_cells_call, extract=_filters_extract,
+        config=SprtCellsConfig(_n, tuple(c for _, c in filters_cells())),
+        seed=SEED + _n, runs=1000, version="1", notebook=_NB06))

@@ -97,3 +97,28 @@ def effect_verdict(est, margin, helpful):
     if -margin <= lo and hi <= margin:
         return "none"
     return "undecided"
+
+
+def geometry_tag(alpha, lead):
+    """The glue-key tag of a geometry (target course ``alpha``, pursuer lead ``lead``,
+    degrees), as 06-sensitivity names the family's cells: ``(33.8, -15)`` is
+    ``"a338_lm15"``, ``(45, 0)`` is ``"a45_l0"``."""
+    for name, v in (("alpha", alpha), ("lead", lead)):
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise TypeError(f"{name} must be a number, got {v!r}")
+    sign = "m" if lead < 0 else "p" if lead > 0 else ""
+    return f"a{alpha:g}".replace(".", "") + f"_l{sign}{abs(lead):g}"
+
+
+def bound_verdict(est, bound):
+    """How a rate ``est`` (an Estimate, fractions) stands against an upper ``bound`` as
+    the registry's direction rule (expect below) decides it: ``"respects"`` when the
+    whole interval lies below the bound, ``"violates"`` when it lies wholly above,
+    ``"undecided"`` when it contains the bound."""
+    if not 0 < bound < 1:
+        raise ValueError(f"bound must lie in (0, 1), got {bound!r}")
+    if est.hi < bound:
+        return "respects"
+    if est.lo > bound:
+        return "violates"
+    return "undecided"
