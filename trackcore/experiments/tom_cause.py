@@ -45,6 +45,18 @@ def _finite(config, names):
         check_finite(getattr(config, name), name)
 
 
+def _check_environment(config, names=("pg", "clutter_density", "pd")):
+    """Check a config's environment fields of ``names``: each finite, ``0 < pg <= 1``,
+    ``clutter_density >= 0`` (1/m^2) and ``0 < pd <= 1``."""
+    _finite(config, names)
+    if "pg" in names and not 0 < config.pg <= 1:
+        raise ValueError(f"pg must be in (0, 1], got {config.pg}")
+    if config.clutter_density < 0:
+        raise ValueError(f"clutter_density must be >= 0, got {config.clutter_density}")
+    if not 0 < config.pd <= 1:
+        raise ValueError(f"pd must be in (0, 1], got {config.pd}")
+
+
 @functools.lru_cache(maxsize=64)
 def _tom_variant(key):
     """The TOM-IMM model set of a filter key: ``"tom"`` (the chapter's) or
@@ -142,13 +154,7 @@ class TomVariantsConfig(_Config):
         check_names(self.filters, "filters", item="filter")
         for key in self.filters:
             _tom_variant(key)  # raises on a bad key
-        _finite(self, ("pg", "clutter_density", "pd"))
-        if not 0 < self.pg <= 1:
-            raise ValueError(f"pg must be in (0, 1], got {self.pg}")
-        if self.clutter_density < 0:
-            raise ValueError(f"clutter_density must be >= 0, got {self.clutter_density}")
-        if not 0 < self.pd <= 1:
-            raise ValueError(f"pd must be in (0, 1], got {self.pd}")
+        _check_environment(self)
 
 
 def _variants_call(config):
