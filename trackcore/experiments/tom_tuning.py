@@ -250,31 +250,29 @@ def _anatomy_extract(run, config):
     return {k: np.ascontiguousarray(v) for k, v in cols.items()}
 
 
-register(Experiment(
-    name="tom-tuning-grid",
-    description=("TOM-IMM chapter, the grid seeds: Singer, the literal index, every "
-                 "point of the chord, velocity-heading and known-rate searches"),
-    trial=_on_stream, call=_stream_call, extract=_mse_extract,
-    config=StreamConfig(filters=GRID_FILTERS, pg=0.9999, stream=0), seed=GRID_SEED,
-    runs=200, version="1", notebook=_NB))
-register(Experiment(
-    name="tom-tuning-fresh",
-    description=("TOM-IMM chapter, the fresh seeds: Singer, CAR, the chapter's TOM and "
-                 "the three points the searches chose, P_G = 0.9999"),
-    trial=_on_stream, call=_stream_call, extract=_mse_extract,
-    config=StreamConfig(filters=FRESH_FILTERS, pg=0.9999, stream=1), seed=GRID_SEED,
-    runs=1000, version="1", notebook=_NB))
-register(Experiment(
-    name="tom-tuning-t9",
-    description=("TOM-IMM chapter, T9: Singer and the best-manoeuvring TOM at the run "
-                 "count declared from the fresh seeds' variance, P_G = 0.9999"),
-    trial=_on_stream, call=_stream_call, extract=_mse_extract,
-    config=StreamConfig(filters=("singer", tom_key(*BEST_MAN)), pg=0.9999, stream=2),
-    seed=GRID_SEED, runs=T9_RUNS, version="1", notebook=_NB))
-register(Experiment(
-    name="tom-cause-no-clutter",
-    description=("TOM-IMM chapter, where the TOM fails: Singer, CAR and the TOM on "
-                 "Table 1's seed without clutter, the failure anatomy"),
-    trial=_on_stream, call=_stream_call, extract=_anatomy_extract,
-    config=StreamConfig(filters=("singer", "car:5.0", "tom"), clutter_density=0.0),
-    seed=TABLE1_SEED, runs=1000, version="1", notebook=_NB))
+#: name: (description, extract, config, seed, runs)
+_EXPERIMENTS = {
+    "tom-tuning-grid": (
+        ("the grid seeds: Singer, the literal index, every point of the chord, "
+         "velocity-heading and known-rate searches"), _mse_extract,
+        StreamConfig(filters=GRID_FILTERS, pg=0.9999, stream=0), GRID_SEED, 200),
+    "tom-tuning-fresh": (
+        ("the fresh seeds: Singer, CAR, the chapter's TOM and the three points the "
+         "searches chose, P_G = 0.9999"), _mse_extract,
+        StreamConfig(filters=FRESH_FILTERS, pg=0.9999, stream=1), GRID_SEED, 1000),
+    "tom-tuning-t9": (
+        ("T9: Singer and the best-manoeuvring TOM at the run count declared from the "
+         "fresh seeds' variance, P_G = 0.9999"), _mse_extract,
+        StreamConfig(filters=("singer", tom_key(*BEST_MAN)), pg=0.9999, stream=2),
+        GRID_SEED, T9_RUNS),
+    "tom-cause-no-clutter": (
+        ("where the TOM fails: Singer, CAR and the TOM on Table 1's seed without "
+         "clutter, the failure anatomy"), _anatomy_extract,
+        StreamConfig(filters=("singer", "car:5.0", "tom"), clutter_density=0.0),
+        TABLE1_SEED, 1000),
+}
+for _name, (_what, _extract, _config, _seed, _runs) in _EXPERIMENTS.items():
+    register(Experiment(
+        name=_name, description=f"TOM-IMM chapter, {_what}", trial=_on_stream,
+        call=_stream_call, extract=_extract, config=_config, seed=_seed, runs=_runs,
+        version="1", notebook=_NB))
