@@ -9,8 +9,9 @@ Three fixed-design Monte Carlo experiments on the seed of Table 1 (20261123):
 * ``tom-cause-one-at-a-time``: each TOM parameter varied alone on Table 1's first 300
   runs (section 5).
 
-The grids and searches of sections 4 and 5 run on spawned seed streams and choose
-their next points from their scores: they stay live in the notebook.
+The grids and searches, the fresh seeds, T9's sample and the runs without clutter are
+stored too (:mod:`.tom_tuning`); the searches choose their next points from the stored
+rows.
 """
 from __future__ import annotations
 
