@@ -91,8 +91,9 @@ def test_anatomy_columns_and_grid_scores_from_rows():
     g[0, 1, 27:] = 0  # outside every gate from t = 29 s
     cols = anatomy_columns(e, g)
     assert cols["onset"][0, 1] == 31.0 and np.isnan(cols["onset"][2, 0]), cols["onset"]
-    assert cols["first_miss"][0, 1] == 29.0 and np.isinf(cols["first_miss"][1, 0])
-    assert cols["last_err2"][0, 1] == 250.0**2 and cols["max_err2"][1, 0] == 300.0**2
+    assert cols["first_miss"][0, 1] == 29.0 and np.isinf(cols["first_miss"][1, 0]), "miss"
+    assert cols["last_err2"][0, 1] == 250.0**2, "the last squared error"
+    assert cols["max_err2"][1, 0] == 300.0**2, "the largest squared error"
     rng = np.random.default_rng(1)
     E = rng.gamma(2.0, 400.0, size=(50, 4, 90))
     E[3, 2, 40] = 500.0**2
