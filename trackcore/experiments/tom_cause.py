@@ -9,8 +9,9 @@ Three fixed-design Monte Carlo experiments on the seed of Table 1 (20261123):
 * ``tom-cause-one-at-a-time``: each TOM parameter varied alone on Table 1's first 300
   runs (section 5).
 
-The grids and searches of sections 4 and 5 run on spawned seed streams and choose
-their next points from their scores: they stay live in the notebook.
+The grids and searches, the fresh seeds, T9's sample and the runs without clutter are
+stored too (:mod:`.tom_tuning`); the searches choose their next points from the stored
+rows.
 """
 from __future__ import annotations
 
@@ -43,6 +44,18 @@ _CT_KEYS = {"cv": float, "ct": float, "p_stay": float}
 def _finite(config, names):
     for name in names:
         check_finite(getattr(config, name), name)
+
+
+def _check_environment(config, names=("pg", "clutter_density", "pd")):
+    """Check a config's environment fields of ``names``: each finite, ``0 < pg <= 1``,
+    ``clutter_density >= 0`` (1/m^2) and ``0 < pd <= 1``."""
+    _finite(config, names)
+    if "pg" in names and not 0 < config.pg <= 1:
+        raise ValueError(f"pg must be in (0, 1], got {config.pg}")
+    if config.clutter_density < 0:
+        raise ValueError(f"clutter_density must be >= 0, got {config.clutter_density}")
+    if not 0 < config.pd <= 1:
+        raise ValueError(f"pd must be in (0, 1], got {config.pd}")
 
 
 @functools.lru_cache(maxsize=64)
@@ -142,13 +155,7 @@ class TomVariantsConfig(_Config):
         check_names(self.filters, "filters", item="filter")
         for key in self.filters:
             _tom_variant(key)  # raises on a bad key
-        _finite(self, ("pg", "clutter_density", "pd"))
-        if not 0 < self.pg <= 1:
-            raise ValueError(f"pg must be in (0, 1], got {self.pg}")
-        if self.clutter_density < 0:
-            raise ValueError(f"clutter_density must be >= 0, got {self.clutter_density}")
-        if not 0 < self.pd <= 1:
-            raise ValueError(f"pd must be in (0, 1], got {self.pd}")
+        _check_environment(self)
 
 
 def _variants_call(config):

@@ -22,12 +22,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scenarios.houles import (HOULES_INITIAL_STATE, HOULES_TURNS, houles_imm_trial,
-                                window_mse)
-from ._checks import check_finite, check_names
+from ..scenarios.houles import (
+    HOULES_INITIAL_STATE,
+    HOULES_TURNS,
+    houles_imm_trial,
+    window_mse,
+)
+from ._checks import check_names
 from ._core import Experiment, register
 from .registry import _Config, _houles_model_set, houles_sweep_trial
-from .tom_cause import TomVariantsConfig, _tom_variant, _variants_call
+from .tom_cause import (
+    TomVariantsConfig,
+    _check_environment,
+    _tom_variant,
+    _variants_call,
+)
 from .tom_pg1 import TomGatesConfig, TomNoGateConfig, _call, _extract, _gates_call
 
 __all__: list[str] = []
@@ -105,14 +114,7 @@ class LadderConfig(_Config):
         check_names(self.filters, "filters", item="filter")
         for key in self.filters:
             _model_set(key)  # raises on a bad key
-        for name in ("pg", "clutter_density", "pd"):
-            check_finite(getattr(self, name), name)
-        if not 0 < self.pg <= 1:
-            raise ValueError(f"pg must be in (0, 1], got {self.pg}")
-        if self.clutter_density < 0:
-            raise ValueError(f"clutter_density must be >= 0, got {self.clutter_density}")
-        if not 0 < self.pd <= 1:
-            raise ValueError(f"pd must be in (0, 1], got {self.pd}")
+        _check_environment(self)
 
 
 def _ladder_call(config):

@@ -29,10 +29,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scenarios.houles import houles_imm_trial, window_mse
-from ._checks import check_finite, check_names
+from ._checks import check_names
 from ._core import Experiment, register
 from .registry import _Config, _houles_model_set, houles_sweep_trial
-from .tom_cause import _tom_variant
+from .tom_cause import _check_environment, _tom_variant
 
 __all__ = ["TomGatesConfig", "TomNoGateConfig"]
 
@@ -74,14 +74,7 @@ class TomNoGateConfig(_Config):
         check_names(self.filters, "filters", item="filter")
         for key in self.filters:
             _model_set(key)  # raises on a bad key
-        for name in ("pg", "clutter_density", "pd", "outer_window"):
-            check_finite(getattr(self, name), name)
-        if not 0 < self.pg <= 1:
-            raise ValueError(f"pg must be in (0, 1], got {self.pg}")
-        if self.clutter_density < 0:
-            raise ValueError(f"clutter_density must be >= 0, got {self.clutter_density}")
-        if not 0 < self.pd <= 1:
-            raise ValueError(f"pd must be in (0, 1], got {self.pd}")
+        _check_environment(self, ("pg", "clutter_density", "pd", "outer_window"))
         if not self.outer_window > 2000.0:
             raise ValueError(f"outer_window must exceed the 2000 m square, got "
                              f"{self.outer_window}")
@@ -145,12 +138,7 @@ class TomGatesConfig(_Config):
         for g in self.gates:
             if isinstance(g, bool) or not isinstance(g, (int, float)) or not 0 < g <= 1:
                 raise ValueError(f"every gate probability must be in (0, 1], got {g!r}")
-        for name in ("clutter_density", "pd"):
-            check_finite(getattr(self, name), name)
-        if self.clutter_density < 0:
-            raise ValueError(f"clutter_density must be >= 0, got {self.clutter_density}")
-        if not 0 < self.pd <= 1:
-            raise ValueError(f"pd must be in (0, 1], got {self.pd}")
+        _check_environment(self, ("clutter_density", "pd"))
 
 
 def _gates_call(config):

@@ -304,13 +304,62 @@ def grid_scores(E_points, E_singer):
     points, 90) and ``E_singer`` (runs, 90) squared errors."""
     from trackcore.scenarios import position_failures, window_mse
 
-    fl = position_failures(E_points, 200.0)
-    ok = ~fl & ~position_failures(E_singer, 200.0)[:, None]
-    num = (window_mse(E_points) * ok[..., None]).sum(axis=0)
-    den = (window_mse(E_singer)[:, None, :] * ok[..., None]).sum(axis=0)
+    return grid_scores_mse(
+        window_mse(E_points),
+        position_failures(E_points, 200.0),
+        window_mse(E_singer),
+        position_failures(E_singer, 200.0),
+    )
+
+
+def grid_scores_mse(M_points, fl_points, M_singer, fl_singer):
+    """:func:`grid_scores` from stored rows: the window mean squares ``M_points``
+    (runs, points, 3) and ``M_singer`` (runs, 3), and the failures ``fl_points`` (runs,
+    points) and ``fl_singer`` (runs,) (the same numbers, bit for bit)."""
+    M_points, M_singer = np.asarray(M_points), np.asarray(M_singer)
+    fl, fl_singer = np.asarray(fl_points, dtype=bool), np.asarray(fl_singer, dtype=bool)
+    if M_points.ndim != 3 or M_points.shape[-1] != 3 or fl.shape != M_points.shape[:2]:
+        raise ValueError(
+            f"M_points must be (runs, points, 3) and fl_points (runs, points), got "
+            f"{M_points.shape} and {fl.shape}"
+        )
+    if M_singer.shape != (M_points.shape[0], 3) or fl_singer.shape != fl.shape[:1]:
+        raise ValueError(
+            f"M_singer must be (runs, 3) and fl_singer (runs,), got {M_singer.shape} "
+            f"and {fl_singer.shape}"
+        )
+    ok = ~fl & ~fl_singer[:, None]
+    num = (M_points * ok[..., None]).sum(axis=0)
+    den = (M_singer[:, None, :] * ok[..., None]).sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
         score = np.sqrt(num / den)
     return np.where(np.isfinite(score), score, np.inf), fl.mean(axis=0)
+
+
+def anatomy_columns(pos_err2, target_gated, threshold=200.0):
+    """Per run and filter, what the failure anatomy needs: the largest and the last
+    squared position error, the onset (first time, s, the error exceeds
+    ``threshold`` m; NaN if never, as :func:`~trackcore.scenarios.failure_anatomy`)
+    and the first time the target measurement fell outside every gate (inf if
+    never). ``pos_err2`` (..., 90) for t = 1..90, ``target_gated`` (..., 89) for
+    t = 2..90 (1 gated, 0 outside every gate, -1 missed)."""
+    from trackcore.scenarios import failure_anatomy
+
+    e, g = np.asarray(pos_err2, dtype=np.float64), np.asarray(target_gated)
+    if e.shape[:-1] != g.shape[:-1] or e.shape[-1] != g.shape[-1] + 1:
+        raise ValueError(
+            f"pos_err2 (..., T) and target_gated (..., T - 1) must match, got "
+            f"{e.shape} and {g.shape}"
+        )
+    an = failure_anatomy(e, threshold)
+    miss = g == 0
+    first = np.where(miss.any(axis=-1), 2.0 + np.argmax(miss, axis=-1), np.inf)
+    return {
+        "max_err2": e.max(axis=-1),
+        "last_err2": e[..., -1],
+        "onset": an.onset,
+        "first_miss": first,
+    }
 
 
 def local_search(memo, start, ladders, score, key, max_rounds=8):
