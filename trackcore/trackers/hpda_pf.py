@@ -538,6 +538,16 @@ def _weight_resample(X, modes, z, Rinv, logdetR, log_pt, log_pf_vg, logw, scratc
 
 
 @nb.njit(cache=True)
+def _ipda_log_term(Zs, j, rr, bb, Rinv, shift):
+    """``shift - d^2 / 2`` for return ``Zs[j]`` against range ``rr`` and bearing ``bb``
+    (``d^2`` its squared Mahalanobis distance under ``Rinv``, bearing wrapped)."""
+    r0 = Zs[j, 0] - rr
+    r1 = wrap_angle_kernel(Zs[j, 1] - bb)
+    return shift - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
+                          + Rinv[1, 1] * r1 * r1)
+
+
+@nb.njit(cache=True)
 def _ipda_weight_resample(X, modes, Zs, vidx, m, Rinv, logdetR, log_pd, log_clutter, logw,
                           scratch, mscratch, idx, rng):
     """IPDA's particle weights ``lambda (1 - P_D P_G) + P_D sum_j N(z_j; h(x_i), R)``
@@ -550,20 +560,10 @@ def _ipda_weight_resample(X, modes, Zs, vidx, m, Rinv, logdetR, log_pd, log_clut
         bb = math.atan2(X[i, 1], X[i, 0])
         hi = log_clutter
         for q in range(m):
-            j = vidx[q]
-            r0 = Zs[j, 0] - rr
-            r1 = wrap_angle_kernel(Zs[j, 1] - bb)
-            u = log_pd + c0 - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
-                                     + Rinv[1, 1] * r1 * r1)
-            hi = max(hi, u)
+            hi = max(hi, _ipda_log_term(Zs, vidx[q], rr, bb, Rinv, log_pd + c0))
         acc = math.exp(log_clutter - hi)
         for q in range(m):
-            j = vidx[q]
-            r0 = Zs[j, 0] - rr
-            r1 = wrap_angle_kernel(Zs[j, 1] - bb)
-            u = log_pd + c0 - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
-                                     + Rinv[1, 1] * r1 * r1)
-            acc += math.exp(u - hi)
+            acc += math.exp(_ipda_log_term(Zs, vidx[q], rr, bb, Rinv, log_pd + c0) - hi)
         logw[i] = hi + math.log(acc)
     _resample_log_weights(X, modes, logw, scratch, mscratch, idx, rng)
 
