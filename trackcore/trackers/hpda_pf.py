@@ -499,12 +499,25 @@ def _count_selection(diag, row, m, s_h, s_nn, lam_vg):
 
 
 @nb.njit(cache=True)
-def _weight_resample(X, modes, z, Rinv, logdetR, log_pt, log_pf_vg, logw, scratch, mscratch,
-                     idx, rng):
-    """Eq (13) weights for ``z^s`` (``hpda_mixture_loglik_kernel``),
-    then systematic resampling in place (one ``rng.random()``)."""
+def _gather_in_place(X, modes, idx, n, scratch, mscratch):
+    """Rows ``idx[:n]`` of the particles ``X`` (4 columns) and their ``modes`` become
+    rows ``0..n-1``, through the work arrays ``scratch`` and ``mscratch``."""
+    for i in range(n):
+        j = idx[i]
+        for a in range(4):
+            scratch[i, a] = X[j, a]
+        mscratch[i] = modes[j]
+    for i in range(n):
+        for a in range(4):
+            X[i, a] = scratch[i, a]
+        modes[i] = mscratch[i]
+
+
+@nb.njit(cache=True)
+def _resample_log_weights(X, modes, logw, scratch, mscratch, idx, rng):
+    """Systematic resampling in place of the ``N = len(X)`` particles with log weights
+    ``logw`` (overwritten by the weights scaled to a largest of 1; one ``rng.random()``)."""
     N = X.shape[0]
-    hpda_mixture_loglik_kernel(X, z, Rinv, logdetR, 0.0, 0.0, log_pt, log_pf_vg, logw)
     mx = -np.inf
     for i in range(N):
         if logw[i] > mx:
@@ -512,15 +525,26 @@ def _weight_resample(X, modes, z, Rinv, logdetR, log_pt, log_pf_vg, logw, scratc
     for i in range(N):
         logw[i] = math.exp(logw[i] - mx)
     systematic_indices_kernel(logw, rng.random(), idx)
-    for i in range(N):
-        j = idx[i]
-        for a in range(4):
-            scratch[i, a] = X[j, a]
-        mscratch[i] = modes[j]
-    for i in range(N):
-        for a in range(4):
-            X[i, a] = scratch[i, a]
-        modes[i] = mscratch[i]
+    _gather_in_place(X, modes, idx, N, scratch, mscratch)
+
+
+@nb.njit(cache=True)
+def _weight_resample(X, modes, z, Rinv, logdetR, log_pt, log_pf_vg, logw, scratch, mscratch,
+                     idx, rng):
+    """Eq (13) weights for ``z^s`` (``hpda_mixture_loglik_kernel``),
+    then systematic resampling in place (one ``rng.random()``)."""
+    hpda_mixture_loglik_kernel(X, z, Rinv, logdetR, 0.0, 0.0, log_pt, log_pf_vg, logw)
+    _resample_log_weights(X, modes, logw, scratch, mscratch, idx, rng)
+
+
+@nb.njit(cache=True)
+def _ipda_log_term(Zs, j, rr, bb, Rinv, shift):
+    """``shift - d^2 / 2`` for return ``Zs[j]`` against range ``rr`` and bearing ``bb``
+    (``d^2`` its squared Mahalanobis distance under ``Rinv``, bearing wrapped)."""
+    r0 = Zs[j, 0] - rr
+    r1 = wrap_angle_kernel(Zs[j, 1] - bb)
+    return shift - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
+                          + Rinv[1, 1] * r1 * r1)
 
 
 @nb.njit(cache=True)
@@ -536,37 +560,12 @@ def _ipda_weight_resample(X, modes, Zs, vidx, m, Rinv, logdetR, log_pd, log_clut
         bb = math.atan2(X[i, 1], X[i, 0])
         hi = log_clutter
         for q in range(m):
-            j = vidx[q]
-            r0 = Zs[j, 0] - rr
-            r1 = wrap_angle_kernel(Zs[j, 1] - bb)
-            u = log_pd + c0 - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
-                                     + Rinv[1, 1] * r1 * r1)
-            hi = max(hi, u)
+            hi = max(hi, _ipda_log_term(Zs, vidx[q], rr, bb, Rinv, log_pd + c0))
         acc = math.exp(log_clutter - hi)
         for q in range(m):
-            j = vidx[q]
-            r0 = Zs[j, 0] - rr
-            r1 = wrap_angle_kernel(Zs[j, 1] - bb)
-            u = log_pd + c0 - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
-                                     + Rinv[1, 1] * r1 * r1)
-            acc += math.exp(u - hi)
+            acc += math.exp(_ipda_log_term(Zs, vidx[q], rr, bb, Rinv, log_pd + c0) - hi)
         logw[i] = hi + math.log(acc)
-    mx = -np.inf
-    for i in range(N):
-        if logw[i] > mx:
-            mx = logw[i]
-    for i in range(N):
-        logw[i] = math.exp(logw[i] - mx)
-    systematic_indices_kernel(logw, rng.random(), idx)
-    for i in range(N):
-        j = idx[i]
-        for a in range(4):
-            scratch[i, a] = X[j, a]
-        mscratch[i] = modes[j]
-    for i in range(N):
-        for a in range(4):
-            X[i, a] = scratch[i, a]
-        modes[i] = mscratch[i]
+    _resample_log_weights(X, modes, logw, scratch, mscratch, idx, rng)
 
 
 @nb.njit(cache=True)

@@ -35,8 +35,8 @@ import numpy as np
 from ..core.validation import as_array, as_rng
 from ..filters.particle import systematic_indices_kernel
 from ..models.measurement import range_bearing_kernel
-from .hpda_pf import (TrackerRun, _finite, _integer, _motion_and_sensor, check_scans,
-                      jump_markov_propagate_kernel)
+from .hpda_pf import (TrackerRun, _finite, _gather_in_place, _integer, _motion_and_sensor,
+                      check_scans, jump_markov_propagate_kernel)
 from .smc_phd_step import phd_range_bearing_update_kernel
 
 __all__ = ["SmcPhdConfig", "smc_phd_run"]
@@ -229,15 +229,8 @@ def _phd_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_n, out
             if Lp > Lmax:
                 Lp = Lmax
             systematic_indices_kernel(w[:L], rng.random(), ridx[:Lp])
+            _gather_in_place(X, M, ridx, Lp, Xn, Mn)
             for i in range(Lp):
-                j = ridx[i]
-                for a in range(4):
-                    Xn[i, a] = X[j, a]
-                Mn[i] = M[j]
-            for i in range(Lp):
-                for a in range(4):
-                    X[i, a] = Xn[i, a]
-                M[i] = Mn[i]
                 w[i] = Nhat / Lp
             L = Lp
         else:
