@@ -125,19 +125,26 @@ class SprtCellsConfig(_Config):
             _cell(self.scenario, c)  # raises on a bad cell
 
 
-def _cells_trial(rng, scenario, cells, h1_true):
-    """One run of every cell from the same generator state: (d, k) per cell."""
-    d = np.empty(len(cells), dtype=np.int8)
-    k = np.empty(len(cells), dtype=np.int16)
+def _each_cell(rng, scenario, cells, h1_true):
+    """Yield ``(j, scenario, discrimination)`` for every cell, each run from the same
+    generator state (= sprt_acm_trial(rng, sc, cfg, h1_true), with the truth computed once
+    per cell)."""
     state = rng.bit_generator.state
     for j, c in enumerate(cells):
         sc, cfg, truth = _cell(scenario, c)
         rng.bit_generator.state = state
-        # = sprt_acm_trial(rng, sc, cfg, h1_true), with the truth computed once per cell
         z = sprt_acm_measurements(sc, rng, truth, h1_true=h1_true)
         out = sprt_acm_discriminate(z.z_pre, z.z_a, z.z_b, truth.own, sc.T, cfg)
         if not bool(out.ok):
             raise ValueError(f"cell {c!r}: a filter covariance lost positive definiteness")
+        yield j, sc, out
+
+
+def _cells_trial(rng, scenario, cells, h1_true):
+    """One run of every cell from the same generator state: (d, k) per cell."""
+    d = np.empty(len(cells), dtype=np.int8)
+    k = np.empty(len(cells), dtype=np.int16)
+    for j, sc, out in _each_cell(rng, scenario, cells, h1_true):
         d[j], k[j] = sprt_decide(out.llr, -sc.gamma, sc.gamma)
     return d, k
 
@@ -345,14 +352,7 @@ def _calib_trial(rng, scenario, cells, h1_true):
     d = np.empty(shape, dtype=np.int8)
     k = np.empty(shape, dtype=np.int16)
     ever = np.empty(shape, dtype=np.int8)
-    state = rng.bit_generator.state
-    for j, c in enumerate(cells):
-        sc, cfg, truth = _cell(scenario, c)
-        rng.bit_generator.state = state
-        z = sprt_acm_measurements(sc, rng, truth, h1_true=h1_true)
-        out = sprt_acm_discriminate(z.z_pre, z.z_a, z.z_b, truth.own, sc.T, cfg)
-        if not bool(out.ok):
-            raise ValueError(f"cell {c!r}: a filter covariance lost positive definiteness")
+    for j, sc, out in _each_cell(rng, scenario, cells, h1_true):
         stats = calib_statistics(out.lam)
         for s in range(len(CALIB_STATS)):
             d[j, s], k[j, s] = sprt_decide(stats[:, s], -sc.gamma, sc.gamma)
