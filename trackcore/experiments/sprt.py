@@ -425,14 +425,7 @@ def _filters_trial(rng, scenario, cells, h1_true):
         r[name] = np.empty(ng, dtype=np.int8)
     for name in ("gk_full", "gk_acm"):
         r[name] = np.empty(ng, dtype=np.int16)
-    state = rng.bit_generator.state
-    for j, c in enumerate(cells):
-        sc, cfg, truth = _cell(scenario, c)
-        rng.bit_generator.state = state
-        z = sprt_acm_measurements(sc, rng, truth, h1_true=h1_true)
-        out = sprt_acm_discriminate(z.z_pre, z.z_a, z.z_b, truth.own, sc.T, cfg)
-        if not bool(out.ok):
-            raise ValueError(f"cell {c!r}: a filter covariance lost positive definiteness")
+    for j, sc, out in _each_cell(rng, scenario, cells, h1_true):
         acm = out.lam[:, 2] - out.lam[:, 1]
         r["d"][j], r["k"][j] = sprt_decide(out.llr, -sc.gamma, sc.gamma)
         r["d_acm"][j], r["k_acm"][j] = sprt_decide(acm, -sc.gamma, sc.gamma)
