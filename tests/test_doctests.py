@@ -45,6 +45,7 @@ WITH_EXAMPLES = [
     "trackcore.detection.image",
     "trackcore.association.hpda",
     "trackcore.association.existence",
+    "trackcore.experiments.registry",
 ]
 
 

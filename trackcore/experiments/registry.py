@@ -90,6 +90,18 @@ class HpdaMonteCarloConfig(_Config):
     trackers run on the same scans (keys of ``HPDA_ALGORITHMS``); ``pd``, ``snr``,
     ``clutter_mean``, ``sigma_r``, ``sigma_theta``: scenario overrides of the case's
     :class:`~trackcore.scenarios.HpdaParameters` (``None``: the case's value).
+
+    Examples
+    --------
+    >>> c = HpdaMonteCarloConfig(1, ("hpda", "phd"))
+    >>> c.parameters().pd, c.parameters().snr
+    (0.9, 10.0)
+    >>> c.with_overrides({"pd": "0.8"}).scenario()
+    {'pd': 0.8}
+    >>> HpdaMonteCarloConfig(4, ("hpda",))
+    Traceback (most recent call last):
+    ...
+    ValueError: case must be 1, 2 or 3, got 4
     """
 
     case: int
@@ -171,7 +183,17 @@ for _case, _what in ((1, "benign case 1 (P_D, rho, lambda V) = (0.9, 10, 10)"),
 class HoulesConfig(_Config):
     """Table 1 of the TOM-IMM chapter: Singer-, CAR- and TOM-IMM-PDAFs on the Houles
     scenario in clutter.  ``car_sigma_cv`` CAR's CV noise (m/s^2), ``pg`` the gate
-    probability, ``clutter_density`` (1/m^2), ``pd`` the detection probability."""
+    probability, ``clutter_density`` (1/m^2), ``pd`` the detection probability.
+
+    Examples
+    --------
+    >>> HoulesConfig().with_overrides({"pg": "0.9999"})
+    HoulesConfig(car_sigma_cv=5.0, pg=0.9999, clutter_density=2e-06, pd=1.0)
+    >>> HoulesConfig(pg=1.0)
+    Traceback (most recent call last):
+    ...
+    ValueError: pg must be in (0, 1), got 1.0
+    """
 
     car_sigma_cv: float = 5.0
     pg: float = 0.99
@@ -232,6 +254,16 @@ class HoulesSweepConfig(_Config):
     noise, m/s^2) or ``"tom"``; ``gates``: gate probabilities, each run with every
     filter on the same measurements; ``clutter_density`` (1/m^2) and ``pd`` as in
     :class:`HoulesConfig`; ``target_gated``: also store the target's gating per scan.
+
+    Examples
+    --------
+    >>> s = HoulesSweepConfig(("singer", "tom"), gates=(0.99, 0.9999))
+    >>> s.with_overrides({"gates": "0.9,0.99"}).gates
+    (0.9, 0.99)
+    >>> HoulesSweepConfig(("singer",), gates=(0.99, 0.99))
+    Traceback (most recent call last):
+    ...
+    ValueError: gates must not repeat, got (0.99, 0.99)
     """
 
     filters: tuple
@@ -294,7 +326,18 @@ def _houles_model_set(key):
 def houles_sweep_trial(rng, model_sets, gates, *, pd=1.0, clutter_density=2e-6):
     """One run of :func:`~trackcore.scenarios.houles_imm_trial` at every gate probability
     in ``gates``, each from the same generator state (so on the same measurements, as
-    separate ``montecarlo.run`` calls with the same seed give); returns the runs."""
+    separate ``montecarlo.run`` calls with the same seed give); returns the runs.
+
+    Examples
+    --------
+    Singer and TOM at two gate probabilities, on the same measurements:
+
+    >>> import numpy as np
+    >>> sets = [_houles_model_set("singer"), _houles_model_set("tom")]
+    >>> runs = houles_sweep_trial(np.random.default_rng(1), sets, (0.99, 0.9999))
+    >>> len(runs), np.asarray(runs[0].pos_err2).shape  # gates; (filters, scans)
+    (2, (2, 90))
+    """
     from ..core.validation import as_rng
 
     rng = as_rng(rng)
