@@ -7,6 +7,11 @@ commit of that run, and the Monte Carlo runs the notebook re-simulated to check 
 stored results (read from the notebook's stored outputs, the lines "re-simulated k of N
 stored runs" that :func:`trackcore.experiments.verify_sample` prints; strict nbval makes
 those equal to the fresh run's). Without a record it says so plainly.
+
+The ``store-runs`` directive renders one row per registered experiment: its notebook, its
+run count before the experiment store existed (``book/appendix/run_counts.yml``), its run
+count now, and the CPU time a run takes and the whole experiment would take to regenerate
+(``benchmarks/results/regen_times.json``, written by ``python -m benchmarks.regen_times``).
 """
 from __future__ import annotations
 
@@ -103,6 +108,67 @@ class ExecStats(SphinxDirective):
         return [intro, _table(header, rows, (34, 10, 8, 8, 14, 22))]
 
 
+RUN_COUNTS = _ROOT / "book" / "appendix" / "run_counts.yml"
+REGEN_FILE = _ROOT / "benchmarks" / "results" / "regen_times.json"
+
+
+def store_rows():
+    """Rows (experiment, notebook, runs before, runs now, CPU s per run, CPU min to
+    regenerate) and the totals dict, from the registry, run_counts.yml and regen_times.json."""
+    import yaml
+
+    from trackcore import experiments
+
+    before = yaml.safe_load(RUN_COUNTS.read_text())["before"]
+    try:
+        regen = json.loads(REGEN_FILE.read_text())
+    except (OSError, ValueError):
+        regen = {"experiments": {}}
+    rows = []
+    tot = {"before": 0, "now_old": 0, "now_new": 0, "cpu": 0.0, "measured": 0,
+           "stored": 0, "experiments": 0, "date": regen.get("date_utc", "—")}
+    for name in experiments.names():
+        exp = experiments.get(name)
+        b = before.get(name)
+        m = regen["experiments"].get(name)
+        stored = experiments.status(name) == "current"
+        tot["experiments"] += 1
+        tot["stored"] += stored
+        if b is not None:
+            tot["before"] += b
+            tot["now_old"] += exp.runs
+        else:
+            tot["now_new"] += exp.runs
+        if m:
+            tot["cpu"] += m["cpu_estimate"]
+            tot["measured"] += 1
+        rows.append((name, Path(exp.notebook).stem if exp.notebook else "—",
+                     "new" if b is None else f"{b}", f"{exp.runs}" + ("" if stored else " (not run)"),
+                     f"{m['cpu_per_run']:.3g}" if m else "—",
+                     f"{m['cpu_estimate'] / 60:.1f}" if m else "—"))
+    return rows, tot
+
+
+class StoreRuns(SphinxDirective):
+    has_content = False
+
+    def run(self):
+        self.env.note_dependency(str(RUN_COUNTS))
+        self.env.note_dependency(str(REGEN_FILE))
+        rows, t = store_rows()
+        intro = nodes.paragraph(text=(
+            f"{t['experiments']} registered experiments, {t['stored']} with stored results. "
+            f"The experiments that existed before the store had {t['before']} runs in all and "
+            f"have {t['now_old']} now; the new ones add {t['now_new']}. Regenerating the "
+            f"{t['measured']} measured stores takes {t['cpu'] / 3600:.1f} CPU-hours run "
+            f"serially (measured {t['date']} UTC), so about {t['cpu'] / 7200:.1f} hours on two "
+            f"worker processes or a two-worker LocalCluster if two workers run twice as fast."))
+        header = ("experiment", "notebook", "runs before the store", "runs now",
+                  "CPU per run (s)", "CPU to regenerate (min)")
+        return [intro, _table(header, rows, (30, 24, 10, 10, 10, 12))]
+
+
 def setup(app):
     app.add_directive("exec-stats", ExecStats)
+    app.add_directive("store-runs", StoreRuns)
     return {"version": "1", "parallel_read_safe": True, "parallel_write_safe": True}
