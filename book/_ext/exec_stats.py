@@ -161,7 +161,7 @@ class StoreRuns(SphinxDirective):
             f"The experiments that existed before the store had {t['before']} runs in all and "
             f"have {t['now_old']} now; the new ones add {t['now_new']}. Regenerating the "
             f"{t['measured']} measured stores takes {t['cpu'] / 3600:.1f} CPU-hours run "
-            f"serially (measured {t['date']} UTC), so about {t['cpu'] / 7200:.1f} hours on two "
+            f"serially (measured {t['date']} UTC), so about {t['cpu'] / 120:.0f} minutes on two "
             f"worker processes or a two-worker LocalCluster if two workers run twice as fast."))
         header = ("experiment", "notebook", "runs before the store", "runs now",
                   "CPU per run (s)", "CPU to regenerate (min)")
