@@ -64,7 +64,18 @@ class TomNoGateConfig(_Config):
     """Filters on the Houles scenario without a gate, in clutter of ``clutter_density``
     (1/m^2) filling an ``outer_window`` (m) square; ``filters`` as in
     :class:`~.registry.HoulesSweepConfig` plus the TOM keys of :mod:`.tom_cause`;
-    ``pg`` the gate probability (1: no gate); ``pd`` the detection probability."""
+    ``pg`` the gate probability (1: no gate); ``pd`` the detection probability.
+
+    Examples
+    --------
+    >>> c = TomNoGateConfig()
+    >>> c.pg, c.outer_window, c.filters[:2]
+    (1.0, 6000.0, ('singer', 'car:5.0'))
+    >>> TomNoGateConfig(outer_window=1000.0)
+    Traceback (most recent call last):
+    ...
+    ValueError: outer_window must exceed the 2000 m square, got 1000.0
+    """
 
     filters: tuple = FILTERS
     pg: float = 1.0
@@ -125,7 +136,18 @@ register(Experiment(
 class TomGatesConfig(_Config):
     """TOM settings (keys of :mod:`.tom_cause`) on the Houles scenario at every gate
     probability of ``gates``, each on the same measurements; ``clutter_density``
-    (1/m^2) and ``pd`` as in :class:`~.registry.HoulesConfig`."""
+    (1/m^2) and ``pd`` as in :class:`~.registry.HoulesConfig`.
+
+    Examples
+    --------
+    >>> c = TomGatesConfig(filters=("singer",))
+    >>> c.gates, c.filters
+    ((0.99, 0.999, 0.9999), ('singer',))
+    >>> TomGatesConfig(gates=(0.99, 1.5))
+    Traceback (most recent call last):
+    ...
+    ValueError: every gate probability must be in (0, 1], got 1.5
+    """
 
     filters: tuple = (TUNED, VBEST)
     gates: tuple = (0.99, 0.999, 0.9999)
