@@ -149,7 +149,7 @@ class _FiltersAtGate(_Config):
             self._filter_check(key)  # raises on a bad key
         _check_environment(self)
 
-    def model_call(self):
+    def _model_call(self):
         """The ``(args, kwargs)`` of the trial: the filters' model sets and the PDA."""
         return ([self._filter_check(k) for k in self.filters],), {
             "pg": self.pg, "clutter_density": self.clutter_density, "pd": self.pd}
@@ -182,7 +182,7 @@ class TomVariantsConfig(_FiltersAtGate):
 
 
 def _variants_call(config):
-    return config.model_call()
+    return config._model_call()
 
 
 def _variants_extract(run, config):

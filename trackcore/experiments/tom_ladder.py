@@ -111,7 +111,7 @@ class LadderConfig(_FiltersAtGate):
 
 
 def _ladder_call(config):
-    return config.model_call()
+    return config._model_call()
 
 
 def _ladder_extract(run, config):
