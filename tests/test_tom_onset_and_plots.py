@@ -37,29 +37,29 @@ def test_onset_columns_means():
 
 
 def _sweep():
-    spec = [("a", "u", [1.0, 2.0]), ("b", "p", [0.5, 0.9])]
+    params = [("a", "u", [1.0, 2.0]), ("b", "p", [0.5, 0.9])]
     rows = [
         (lab, v, [Est(0.9, 0.8, 1.0)] * 3, Est(0.02, 0.01, 0.03))
-        for lab, _, vals in spec
+        for lab, _, vals in params
         for v in vals
     ]
-    return spec, rows
+    return params, rows
 
 
 def test_plot_one_at_a_time_draws_a_row_per_parameter():
-    spec, rows = _sweep()
-    fig = plot_one_at_a_time(rows, spec, ["t", "m", "n"], Est(0.05, 0.04, 0.06), 6.0)
+    params, rows = _sweep()
+    fig = plot_one_at_a_time(rows, params, ["t", "m", "n"], Est(0.05, 0.04, 0.06), 6.0)
     assert len(fig.axes) == 4, "two panels per parameter"
     assert len(fig.axes[0].containers) == 3, "one error bar per window"
     plt.close(fig)
 
 
 def test_plot_one_at_a_time_bad_input():
-    spec, rows = _sweep()
+    params, rows = _sweep()
     with pytest.raises(ValueError, match="windows"):
-        plot_one_at_a_time(rows, spec, ["t"], Est(0.05, 0.04, 0.06), 6.0)
-    with pytest.raises(ValueError, match="spec"):
-        plot_one_at_a_time(rows[:2], spec, ["t", "m", "n"], Est(0.1, 0, 1), 6.0)
+        plot_one_at_a_time(rows, params, ["t"], Est(0.05, 0.04, 0.06), 6.0)
+    with pytest.raises(ValueError, match="params"):
+        plot_one_at_a_time(rows[:2], params, ["t", "m", "n"], Est(0.1, 0, 1), 6.0)
 
 
 def test_plot_tuning_grid_marks_the_points():

@@ -393,12 +393,12 @@ def velocity_on_table1(stored):
     return rmse_ratio_mse(M, over(mx, 200.0), 4, 0)
 
 
-def plot_one_at_a_time(sweep, spec, windows, singer_fail, width):
+def plot_one_at_a_time(sweep, params, windows, singer_fail, width):
     """Figure of 05's one-at-a-time sweep: per parameter, the TOM/Singer ratios of each
     window (left) and the TOM's failure rate (right), with their intervals.
 
     ``sweep``: ``(label, value, [ratio per window], failure rate)`` rows, estimates with
-    ``value``, ``lo``, ``hi``; ``spec``: the ``(label, key, values)`` rows of the sweep;
+    ``value``, ``lo``, ``hi``; ``params``: the ``(label, key, values)`` rows of the sweep;
     ``windows``: the window names (3); ``singer_fail``: Singer's failure-rate estimate on
     the same runs; ``width``: the figure width (in). Returns the figure.
     """
@@ -407,11 +407,11 @@ def plot_one_at_a_time(sweep, spec, windows, singer_fail, width):
     if len(windows) != 3:
         raise ValueError(f"windows must name 3 windows, got {windows!r}")
     labels = {s[0] for s in sweep}
-    if not spec or not all(label in labels for label, _, _ in spec):
-        raise ValueError("every row of spec needs rows of sweep with its label")
-    fig, axes = plt.subplots(len(spec), 2, figsize=(width, 10.0), squeeze=False)
+    if not params or not all(label in labels for label, _, _ in params):
+        raise ValueError("every row of params needs rows of sweep with its label")
+    fig, axes = plt.subplots(len(params), 2, figsize=(width, 10.0), squeeze=False)
     f_max = 100 * max(s[3].hi for s in sweep) * 1.05
-    for (ax_r, ax_f), (label, _, _) in zip(axes, spec):
+    for (ax_r, ax_f), (label, _, _) in zip(axes, params):
         rs = [s for s in sweep if s[0] == label]
         x = np.array([s[1] for s in rs])
         dx = 0.012 * (x.max() - x.min())
