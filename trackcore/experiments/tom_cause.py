@@ -134,14 +134,45 @@ def _tom_value(key, name, value, names=_TOM_KEYS):
         raise ValueError(f"filter key {key!r}: {name} must be a number") from None
 
 
+class _FiltersAtGate(_Config):
+    """Shared checks and call of the configs that run ``filters`` at one gate ``pg``
+    (``clutter_density`` 1/m^2, ``pd``) on the same measurements: each key is checked
+    by ``_filter_check`` (a TOM key of :func:`_tom_variant` unless a subclass says
+    otherwise); a mixin, so each config keeps its own class and fields."""
+
+    _KINDS = {"filters": tuple, "pg": float, "clutter_density": float, "pd": float}
+    _filter_check = staticmethod(_tom_variant)
+
+    def __post_init__(self):
+        check_names(self.filters, "filters", item="filter")
+        for key in self.filters:
+            self._filter_check(key)  # raises on a bad key
+        _check_environment(self)
+
+    def _model_call(self):
+        """The ``(args, kwargs)`` of the trial: the filters' model sets and the PDA."""
+        return ([self._filter_check(k) for k in self.filters],), {
+            "pg": self.pg, "clutter_density": self.clutter_density, "pd": self.pd}
+
+
 @dataclass(frozen=True)
-class TomVariantsConfig(_Config):
+class TomVariantsConfig(_FiltersAtGate):
     """TOM-IMM variants on the Houles scenario, each run on the same measurements.
 
     ``filters``: keys ``"tom"`` or ``"tom:NAME=VALUE"`` (NAME: ``heading``,
     ``reset_vs_variance``, ``rotate_covariance`` (0 or 1), ``u``, ``sigma_s_turn``,
     ``sigma_s_centre``, ``sigma_f``, ``p_stay``); ``pg`` the gate probability,
     ``clutter_density`` (1/m^2), ``pd`` the detection probability.
+
+    Examples
+    --------
+    >>> c = TomVariantsConfig(("tom", "tom:u=100.0"), pg=0.9999)
+    >>> c.filters, c.pg, c.with_overrides({"pd": "0.9"}).pd
+    (('tom', 'tom:u=100.0'), 0.9999, 0.9)
+    >>> TomVariantsConfig(("tom",), pg=1.5)
+    Traceback (most recent call last):
+    ...
+    ValueError: pg must be in (0, 1], got 1.5
     """
 
     filters: tuple
@@ -149,18 +180,9 @@ class TomVariantsConfig(_Config):
     clutter_density: float = 2e-6
     pd: float = 1.0
 
-    _KINDS = {"filters": tuple, "pg": float, "clutter_density": float, "pd": float}
-
-    def __post_init__(self):
-        check_names(self.filters, "filters", item="filter")
-        for key in self.filters:
-            _tom_variant(key)  # raises on a bad key
-        _check_environment(self)
-
 
 def _variants_call(config):
-    return ([_tom_variant(k) for k in config.filters],), {
-        "pg": config.pg, "clutter_density": config.clutter_density, "pd": config.pd}
+    return config._model_call()
 
 
 def _variants_extract(run, config):
@@ -175,7 +197,18 @@ class StraightLegConfig(_Config):
     """Section 1: a CV Kalman filter (DWNA ``cv_sigma`` m/s^2) and single TOM models
     (lateral noise ``tom_sigma_s``, ``sigma_f`` along track, m/s^2) without clutter
     and without a gate; rows summarise ``t0 <= t <= t1`` (s) and keep the prediction
-    errors up to ``t_plot`` (s) for the figure."""
+    errors up to ``t_plot`` (s) for the figure.
+
+    Examples
+    --------
+    >>> c = StraightLegConfig()
+    >>> c.tom_sigma_s, c.t0, c.t1
+    ((1.0, 3.0), 5.0, 19.0)
+    >>> StraightLegConfig(t0=30.0, t1=20.0)
+    Traceback (most recent call last):
+    ...
+    ValueError: need 2 <= t0 <= t1 <= 90, got t0 = 30.0, t1 = 20.0
+    """
 
     cv_sigma: float = 1.0
     tom_sigma_s: tuple = (1.0, 3.0)

@@ -28,12 +28,11 @@ from ..scenarios.houles import (
     houles_imm_trial,
     window_mse,
 )
-from ._checks import check_names
 from ._core import Experiment, register
-from .registry import _Config, _houles_model_set, houles_sweep_trial
+from .registry import _houles_model_set, houles_sweep_trial
 from .tom_cause import (
     TomVariantsConfig,
-    _check_environment,
+    _FiltersAtGate,
     _tom_variant,
     _variants_call,
 )
@@ -98,7 +97,7 @@ def _model_set(key):
 
 
 @dataclass(frozen=True)
-class LadderConfig(_Config):
+class LadderConfig(_FiltersAtGate):
     """Filters (keys ``"singer"``, ``"car:S"``, TOM keys and ``"ct:..."`` keys of
     :mod:`.tom_cause`) on the Houles scenario at one gate; ``pg``, ``clutter_density``
     (1/m^2) and ``pd`` as in :class:`~.tom_cause.TomVariantsConfig`."""
@@ -108,18 +107,11 @@ class LadderConfig(_Config):
     clutter_density: float = 2e-6
     pd: float = 1.0
 
-    _KINDS = {"filters": tuple, "pg": float, "clutter_density": float, "pd": float}
-
-    def __post_init__(self):
-        check_names(self.filters, "filters", item="filter")
-        for key in self.filters:
-            _model_set(key)  # raises on a bad key
-        _check_environment(self)
+    _filter_check = staticmethod(_model_set)
 
 
 def _ladder_call(config):
-    return ([_model_set(k) for k in config.filters],), {
-        "pg": config.pg, "clutter_density": config.clutter_density, "pd": config.pd}
+    return config._model_call()
 
 
 def _ladder_extract(run, config):

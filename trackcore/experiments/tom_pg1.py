@@ -21,6 +21,11 @@ and last squared error and the target's gating per scan.
 and the jointly tuned TOM on Table 1's runs at the three gates, and on the 3000 runs of
 ``tom-imm-houles-pg1`` without a gate: per filter the mean squared position error in the
 5 s after each turn (t = 36-40 and 71-75 s) and the largest squared error.
+
+``tom-imm-houles-onset`` and ``tom-imm-houles-pg1-onset``: Singer alone on the same runs
+(Table 1's at the three gates; the 3000 without a gate): its mean squared position error
+in the first 5 s of each turn (t = 21-25 and 56-60 s), in the rest of the manoeuvring
+window (t = 26-40 and 61-75 s), and its largest squared error.
 """
 from __future__ import annotations
 
@@ -59,7 +64,18 @@ class TomNoGateConfig(_Config):
     """Filters on the Houles scenario without a gate, in clutter of ``clutter_density``
     (1/m^2) filling an ``outer_window`` (m) square; ``filters`` as in
     :class:`~.registry.HoulesSweepConfig` plus the TOM keys of :mod:`.tom_cause`;
-    ``pg`` the gate probability (1: no gate); ``pd`` the detection probability."""
+    ``pg`` the gate probability (1: no gate); ``pd`` the detection probability.
+
+    Examples
+    --------
+    >>> c = TomNoGateConfig()
+    >>> c.pg, c.outer_window, c.filters[:2]
+    (1.0, 6000.0, ('singer', 'car:5.0'))
+    >>> TomNoGateConfig(outer_window=1000.0)
+    Traceback (most recent call last):
+    ...
+    ValueError: outer_window must exceed the 2000 m square, got 1000.0
+    """
 
     filters: tuple = FILTERS
     pg: float = 1.0
@@ -120,7 +136,18 @@ register(Experiment(
 class TomGatesConfig(_Config):
     """TOM settings (keys of :mod:`.tom_cause`) on the Houles scenario at every gate
     probability of ``gates``, each on the same measurements; ``clutter_density``
-    (1/m^2) and ``pd`` as in :class:`~.registry.HoulesConfig`."""
+    (1/m^2) and ``pd`` as in :class:`~.registry.HoulesConfig`.
+
+    Examples
+    --------
+    >>> c = TomGatesConfig(filters=("singer",))
+    >>> c.gates, c.filters
+    ((0.99, 0.999, 0.9999), ('singer',))
+    >>> TomGatesConfig(gates=(0.99, 1.5))
+    Traceback (most recent call last):
+    ...
+    ValueError: every gate probability must be in (0, 1], got 1.5
+    """
 
     filters: tuple = (TUNED, VBEST)
     gates: tuple = (0.99, 0.999, 0.9999)
@@ -198,4 +225,48 @@ register(Experiment(
                  "declared and the jointly tuned TOM on the runs of tom-imm-houles-pg1"),
     trial=houles_imm_trial, call=_call, extract=_postturn_extract,
     config=TomNoGateConfig(), seed=SEED, runs=3000, version="1",
+    notebook="book/001-tom-imm/03-houles-monte-carlo.ipynb"))
+
+
+def _onset_masks():
+    """The first 5 s of each turn (t = 21-25 and 56-60 s) and the rest of the
+    manoeuvring window (t = 26-40 and 61-75 s), on the samples t = 1..90."""
+    t = np.arange(1.0, 91.0)
+    onset = ((t >= 21) & (t <= 25)) | ((t >= 56) & (t <= 60))
+    rest = ((t >= 26) & (t <= 40)) | ((t >= 61) & (t <= 75))
+    return onset, rest
+
+
+def _onset_columns(e):
+    """Onset and rest mean squares and the largest squared error of ``e`` (..., 90)."""
+    onset, rest = _onset_masks()
+    return {"onset_mse": e[..., onset].mean(axis=-1), "rest_mse": e[..., rest].mean(axis=-1),
+            "max_err2": e.max(axis=-1)}
+
+
+def _onset_extract(run, config):
+    """Per filter: onset and rest mean squares and the largest squared error."""
+    return _onset_columns(np.asarray(run.pos_err2, dtype=np.float64))
+
+
+def _gates_onset_extract(runs, config):
+    """Per gate and filter: onset and rest mean squares, largest squared error."""
+    return _onset_columns(np.stack([np.asarray(r.pos_err2, dtype=np.float64)
+                                    for r in runs]))
+
+
+register(Experiment(
+    name="tom-imm-houles-onset",
+    description=("TOM-IMM chapter, Singer at the turn onsets: Singer alone on Table 1's "
+                 "runs at P_G = 0.99, 0.999 and 0.9999"),
+    trial=houles_sweep_trial, call=_gates_call, extract=_gates_onset_extract,
+    config=TomGatesConfig(filters=("singer",)), seed=SEED, runs=1000, version="1",
+    notebook="book/001-tom-imm/03-houles-monte-carlo.ipynb"))
+
+register(Experiment(
+    name="tom-imm-houles-pg1-onset",
+    description=("TOM-IMM chapter, Singer at the turn onsets without a gate: Singer alone "
+                 "on the runs of tom-imm-houles-pg1"),
+    trial=houles_imm_trial, call=_call, extract=_onset_extract,
+    config=TomNoGateConfig(filters=("singer",)), seed=SEED, runs=3000, version="1",
     notebook="book/001-tom-imm/03-houles-monte-carlo.ipynb"))

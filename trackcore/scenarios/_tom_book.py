@@ -391,3 +391,96 @@ def velocity_on_table1(stored):
     M = np.concatenate([gs["window_mse"][:, 1], tg["window_mse"][:, 2]], axis=1)
     mx = np.concatenate([gs["max_err2"][:, 1], tg["max_err2"][:, 2]], axis=1)
     return rmse_ratio_mse(M, over(mx, 200.0), 4, 0)
+
+
+def plot_one_at_a_time(sweep, params, windows, singer_fail, width):
+    """Figure of 05's one-at-a-time sweep: per parameter, the TOM/Singer ratios of each
+    window (left) and the TOM's failure rate (right), with their intervals.
+
+    ``sweep``: ``(label, value, [ratio per window], failure rate)`` rows, estimates with
+    ``value``, ``lo``, ``hi``; ``params``: the ``(label, key, values)`` rows of the sweep;
+    ``windows``: the window names (3); ``singer_fail``: Singer's failure-rate estimate on
+    the same runs; ``width``: the figure width (in). Returns the figure.
+    """
+    import matplotlib.pyplot as plt
+
+    if len(windows) != 3:
+        raise ValueError(f"windows must name 3 windows, got {windows!r}")
+    labels = {s[0] for s in sweep}
+    if not params or not all(label in labels for label, _, _ in params):
+        raise ValueError("every row of params needs rows of sweep with its label")
+    fig, axes = plt.subplots(len(params), 2, figsize=(width, 10.0), squeeze=False)
+    f_max = 100 * max(s[3].hi for s in sweep) * 1.05
+    for (ax_r, ax_f), (label, _, _) in zip(axes, params):
+        rs = [s for s in sweep if s[0] == label]
+        x = np.array([s[1] for s in rs])
+        dx = 0.012 * (x.max() - x.min())
+        for w, (win, mk) in enumerate(zip(windows, ("o", "s", "^"))):
+            v = np.array([[s[2][w].value, s[2][w].lo, s[2][w].hi] for s in rs]) * 100
+            ax_r.errorbar(x + dx * (w - 1), v[:, 0], yerr=[v[:, 0] - v[:, 1],
+                          v[:, 2] - v[:, 0]], fmt=mk + "-", capsize=2, label=win)
+        ax_r.axhline(80, color="C3", ls="--", lw=1, label="claim: total ≤ 80 %")
+        ax_r.set_ylabel("% of Singer")
+        f_ = np.array([[s[3].value, s[3].lo, s[3].hi] for s in rs]) * 100
+        ax_f.errorbar(x, f_[:, 0], yerr=[f_[:, 0] - f_[:, 1], f_[:, 2] - f_[:, 0]],
+                      fmt="x-", color="0.3", capsize=2, label="TOM failures")
+        ax_f.axhline(100 * singer_fail.value, color="C0", ls=":", lw=1.2,
+                     label="Singer failures")
+        ax_f.set_ylabel("failures (%)")
+        ax_f.set_ylim(0, f_max)
+        for ax in (ax_r, ax_f):
+            ax.set_xticks(x, [f"{v:g}" for v in x])
+            ax.set_xlabel(label)
+    handles, labs = axes[0, 0].get_legend_handles_labels()
+    h2, l2 = axes[0, 1].get_legend_handles_labels()
+    fig.legend(handles + h2, labs + l2, loc="upper center", ncols=3, fontsize=8)
+    plt.tight_layout(rect=(0, 0, 1, 0.95))
+    return fig
+
+
+def plot_tuning_grid(scores, grids, marked, singer_fail, width):
+    """Figure of 05's joint tuning: each scored setting's total score against its
+    failure rate on the grid seeds, the grid's points filled, the points past its
+    edges open.
+
+    ``scores``: ``{heading label: {setting: (total, manoeuvring, non, failure)}}``
+    (fractions); ``grids``: ``{heading label: the grid's settings}``; ``marked``:
+    ``(default setting of the first heading, [(heading label, best setting), ...])``;
+    ``singer_fail``: Singer's failure rate (fraction); ``width``: figure width (in).
+    Returns the figure.
+    """
+    import matplotlib.pyplot as plt
+
+    if set(scores) != set(grids):
+        raise ValueError(f"scores and grids must name the same headings, got "
+                         f"{sorted(scores)} and {sorted(grids)}")
+    default, best = marked
+    first = next(iter(scores))
+    if default not in scores[first] or any(q not in scores[h] for h, q in best):
+        raise ValueError("every marked setting must be scored")
+    fig, ax = plt.subplots(figsize=(width, 4.2))
+    for (lab, m), mk in zip(scores.items(), ("o", "^", "s", "v")):
+        g = np.array([m[q] for q in grids[lab]])
+        ax.scatter(100 * g[:, 3], 100 * g[:, 0], s=18, marker=mk,
+                   label=f"TOM grid ({lab})")
+        ext = [q for q in m if q not in grids[lab]]
+        if ext:
+            e_ = np.array([m[q] for q in ext])
+            ax.scatter(100 * e_[:, 3], 100 * e_[:, 0], s=22, marker=mk,
+                       facecolors="none", edgecolors="0.3",
+                       label=f"past the grid's edges ({lab})")
+    d = scores[first][default]
+    ax.scatter(100 * d[3], 100 * d[0], s=90, facecolors="none", edgecolors="k",
+               label="chapter default")
+    ax.scatter([100 * scores[h][q][3] for h, q in best],
+               [100 * scores[h][q][0] for h, q in best], s=140, marker="*",
+               color="C3", label="best total (its grid-seed score; fresh seeds: "
+               "table below)")
+    ax.axhline(80, color="C3", ls="--", lw=1, label="claim: total ≤ 80 %")
+    ax.axvline(100 * singer_fail, color="0.5", ls=":", lw=1,
+               label="Singer's failure rate")
+    ax.set_xlabel("TOM failure rate on the 200 grid seeds (%)")
+    ax.set_ylabel("TOM total RMSE, % of Singer\n(runs neither failed)")
+    ax.set_ylim(76, None)
+    ax.legend(loc="lower right", fontsize=7, ncols=2)
+    return fig

@@ -85,6 +85,16 @@ def houles_truth(t):
 
     A scalar ``t`` gives shape ``(1, 4)``.  Times after 90 s extrapolate the
     final straight leg (the target has reached the sensor by then).
+
+    Examples
+    --------
+    The start state, and the target next to the sensor at t = 90 s:
+
+    >>> [round(float(v), 1) for v in houles_truth(0.0)[0]]
+    [21689.0, 10840.0, -8.3, -399.9]
+    >>> x = houles_truth([90.0])[0]
+    >>> round(float(np.hypot(x[0], x[1])), 1), round(float(np.hypot(x[2], x[3])), 1)
+    (1.5, 400.0)
     """
     t = as_array(t, "t", ndim=(0, 1)).reshape(-1)
     if t.size and t.min() < 0:
@@ -105,6 +115,12 @@ class HoulesScans(NamedTuple):
     ``(m_k, 2)`` array (``m_k = 0`` is possible); ``target_index[k]`` is the
     row of ``z`` holding the target-originated measurement, or -1 if the target
     was not detected.  Rows within a scan are in random order.
+
+    Examples
+    --------
+    >>> scans = houles_measurements(houles_truth([0.0, 1.0]), np.random.default_rng(1))
+    >>> scans.scan(0).shape, len(scans.scans()), scans.target_index.tolist()
+    ((8, 2), 2, [6, 15])
     """
     times: np.ndarray         # (K,)
     z: np.ndarray             # (N, 2)
@@ -137,6 +153,19 @@ def houles_measurements(truth, rng, *, sigma=20.0, pd=1.0, clutter_density=2e-6,
     the ring between the two squares are drawn after them and appended to each
     scan, so the target measurements and the inner clutter are those of the same
     generator without the ring.  Returns :class:`HoulesScans`.
+
+    Examples
+    --------
+    Four scans of the paper's clutter (8 false returns per scan on average), then the
+    same draws with the ring out to a 6 km square appended:
+
+    >>> truth = houles_truth(np.arange(0.0, 4.0))
+    >>> scans = houles_measurements(truth, np.random.default_rng(1))
+    >>> np.diff(scans.offsets).tolist(), scans.target_index.tolist()
+    ([8, 8, 12, 8], [4, 14, 24, 30])
+    >>> ring = houles_measurements(truth, np.random.default_rng(1), outer_window=6000.0)
+    >>> np.diff(ring.offsets).tolist(), bool(np.array_equal(ring.scan(0)[:8], scans.scan(0)))
+    ([74, 56, 73, 67], True)
     """
     truth = as_array(truth, "truth", ndim=2)
     if truth.shape[1] < 2:
@@ -226,6 +255,13 @@ class HoulesRun(NamedTuple):
     ``pred_err`` is the error of the predicted position (the mixture's predicted
     measurement before the update) in the target's own frame: along-track and
     lateral (positive to the right of the true heading, the TOM convention).
+
+    Examples
+    --------
+    >>> from trackcore.trackers import singer_imm_model_set
+    >>> run = houles_imm_trial(np.random.default_rng(5), [singer_imm_model_set()])
+    >>> run.pos_err2.shape, run.nis.shape, run.mu.shape, run.pred_err.shape
+    ((1, 90), (1, 89), (1, 89, 3), (1, 89, 2))
     """
     pos_err2: np.ndarray      # (F, 90) squared position error (m^2), t = 1..90
     vel_err2: np.ndarray      # (F, 90) squared velocity error ((m/s)^2), t = 1..90
@@ -251,6 +287,18 @@ def houles_imm_trial(rng, model_sets, *, pd=1.0, pg=0.99, clutter_density=2e-6, 
     t = 2 .. 90 with the PDA parameters ``pd``, ``pg`` and ``clutter_density``;
     ``window`` and ``outer_window`` as in :func:`houles_measurements`.
     Returns :class:`HoulesRun`.
+
+    Examples
+    --------
+    Singer and CAR on the same measurements; their RMSE (m) per window:
+
+    >>> from trackcore.trackers import car_imm_model_set, singer_imm_model_set
+    >>> sets = [singer_imm_model_set(), car_imm_model_set(sigma_cv=5.0)]
+    >>> run = houles_imm_trial(np.random.default_rng(5), sets)
+    >>> np.sqrt(window_mse(run.pos_err2)).round(1).tolist()
+    [[27.0, 31.3, 22.9], [26.1, 28.9, 23.6]]
+    >>> position_failures(run.pos_err2).tolist()
+    [False, False]
     """
     from ..metrics import nees, nis
     from ..trackers.imm_pdaf import IMMModelSet, imm_pdaf_track_packed, two_point_init
@@ -332,6 +380,12 @@ def houles_windows():
     through 5 s after its end (40 samples); non-manoeuvring = the other 50.
     With these, total^2 = (40/90) man^2 + (50/90) non^2, the identity that the
     paper's Singer and CAR columns satisfy.
+
+    Examples
+    --------
+    >>> man, non = houles_windows()
+    >>> int(man.sum()), int(non.sum()), HOULES_TIMES[man][:3].tolist()
+    (40, 50, [21.0, 22.0, 23.0])
     """
     t = HOULES_TIMES
     man = ((t >= 21) & (t <= 40)) | ((t >= 56) & (t <= 75))
@@ -369,6 +423,15 @@ def window_mse(pos_err2):
     ``pos_err2`` (..., 90) squared errors at t = 1..90; returns (..., 3) for
     (total, manoeuvring, non-manoeuvring).  The pooled RMSE of a set of runs is
     the square root of the mean of these over the runs.
+
+    Examples
+    --------
+    A run with a 10 m error throughout, and one with a 250 m excursion at t = 31 s:
+
+    >>> e = np.full((2, 90), 100.0)
+    >>> e[1, 30] = 250.0**2
+    >>> window_mse(e).round(1).tolist()
+    [[100.0, 100.0, 100.0], [793.3, 1660.0, 100.0]]
     """
     e = _errors(pos_err2)
     if not np.all(np.isfinite(e)):
@@ -389,6 +452,13 @@ def position_failures(pos_err2, threshold=200.0):
     """Runs whose position error exceeds ``threshold`` (m) at any time.
 
     ``pos_err2`` (..., T) squared errors; returns a bool array of shape (...).
+
+    Examples
+    --------
+    >>> e = np.full((2, 90), 100.0)
+    >>> e[1, 30] = 250.0**2
+    >>> position_failures(e).tolist(), position_failures(e, threshold=300.0).tolist()
+    ([False, True], [False, False])
     """
     e = as_array(pos_err2, "pos_err2", ndim=(1, 2, 3), finite=False)
     if np.any(np.isnan(e)) or np.any(e < 0):
@@ -400,7 +470,16 @@ def position_failures(pos_err2, threshold=200.0):
 def gate_miss_failures(target_gated, n_consecutive=3):
     """Runs in which the target measurement was outside every gate on at least
     ``n_consecutive`` consecutive scans (``target_gated`` from :class:`HoulesRun`;
-    missed detections, -1, neither count nor break a streak)."""
+    missed detections, -1, neither count nor break a streak).
+
+    Examples
+    --------
+    A miss (-1) inside a streak of scans outside the gate does not break it:
+
+    >>> g = np.array([[1, 0, 0, -1, 0, 1], [1, 0, 1, 0, 0, 1]], dtype=np.int8)
+    >>> gate_miss_failures(g).tolist(), gate_miss_failures(g, n_consecutive=2).tolist()
+    ([True, False], [True, True])
+    """
     g = np.asarray(target_gated)
     if g.ndim < 1 or not np.issubdtype(g.dtype, np.integer):
         raise TypeError("target_gated must be an integer array (1 gated, 0 not, -1 missed)")
@@ -419,7 +498,16 @@ def gate_miss_failures(target_gated, n_consecutive=3):
 
 
 class FailureAnatomy(NamedTuple):
-    """When and how runs fail (see :func:`failure_anatomy`)."""
+    """When and how runs fail (see :func:`failure_anatomy`).
+
+
+    Examples
+    --------
+    >>> e = np.full((1, 90), 100.0)
+    >>> e[0, 30:33] = 250.0**2
+    >>> failure_anatomy(e).time_lost.tolist()
+    [3]
+    """
     failed: np.ndarray     # (...) bool: error above the threshold at some time
     onset: np.ndarray      # (...) first time (s) above the threshold, NaN if never
     permanent: np.ndarray  # (...) bool: still above the threshold at t = 90 s
@@ -433,6 +521,16 @@ def failure_anatomy(pos_err2, threshold=200.0):
     t = 1..90 (as :func:`position_failures`); ``onset`` is the first such time
     and ``permanent`` says whether the error is still above the threshold at the
     last scan.
+
+    Examples
+    --------
+    The second run exceeds 200 m at t = 31 s only, and recovers:
+
+    >>> e = np.full((2, 90), 100.0)
+    >>> e[1, 30] = 250.0**2
+    >>> a = failure_anatomy(e)
+    >>> a.failed.tolist(), a.onset.tolist(), a.permanent.tolist(), a.time_lost.tolist()
+    ([False, True], [nan, 31.0], [False, False], [0, 1])
     """
     e = _errors(pos_err2)
     threshold = as_positive(threshold, "threshold")
@@ -444,7 +542,15 @@ def failure_anatomy(pos_err2, threshold=200.0):
 
 
 class FailureComparison(NamedTuple):
-    """Paired failure outcomes of two filters on the same runs (see :func:`failure_comparison`)."""
+    """Paired failure outcomes of two filters on the same runs (see :func:`failure_comparison`).
+
+
+    Examples
+    --------
+    >>> c = failure_comparison(np.array([[True, False]] * 3 + [[False, True]] * 37), 0, 1)
+    >>> c.only_a, c.only_b
+    (3, 37)
+    """
     difference: Estimate  # rate of A minus rate of B, paired (Newcombe) interval
     only_a: int           # runs that A failed and B did not
     only_b: int           # runs that B failed and A did not
@@ -458,6 +564,15 @@ def failure_comparison(failed, a, b):
     difference of the rates with its interval (:func:`trackcore.stats.paired_diff_ci` on
     the 0/1 outcomes) and the exact McNemar p-value (:func:`trackcore.stats.mcnemar_exact`)
     on the runs where exactly one of the two failed.
+
+    Examples
+    --------
+    Filter 0 fails in 6 of 20 runs, filter 1 in none:
+
+    >>> failed = np.array([[True, False]] * 6 + [[False, False]] * 14)
+    >>> c = failure_comparison(failed, 0, 1)
+    >>> f"{c.difference.value:.2f}", c.only_a, c.only_b, round(c.p_value, 4)
+    ('0.30', 6, 0, 0.0312)
     """
     failed = np.asarray(failed)
     if failed.ndim != 2 or failed.dtype != np.bool_:
@@ -505,6 +620,19 @@ def failure_grid(max_err2, last_err2, gate_missed, *, singer=0, car=1, tom=2):
     compared.  Returns ``{definition: FailureCell}``: each filter's rate (exact
     interval) and the paired differences Singer − TOM, TOM − CAR, Singer − CAR
     (:func:`failure_comparison`), and the failed runs.
+
+    Examples
+    --------
+    Singer (filter 0) exceeds 200 m, but not 300 m, in 3 of 40 runs:
+
+    >>> mx = np.array([[250.0, 150.0, 120.0]] * 3 + [[100.0] * 3] * 37) ** 2
+    >>> last, miss = np.full((40, 3), 100.0), np.zeros((40, 3), dtype=bool)
+    >>> grid = failure_grid(mx, last, miss)
+    >>> cell = grid["error > 200 m at some time"]
+    >>> f"{cell.rate[0]:.1%}", cell.singer_minus_tom.only_a
+    ('7.5 [2.6, 19.9] %', 3)
+    >>> f"{grid['error > 300 m at some time'].rate[0]:.1%}"
+    '0.0 [0.0, 8.8] %'
     """
     mx = _squared_errors(max_err2, "max_err2")
     last = _squared_errors(last_err2, "last_err2")
@@ -584,6 +712,13 @@ def rmse_estimate(pos_err2, failed, f=0, *, window="total"):
 
     ``pos_err2`` (runs, filters, 90), ``failed`` (runs, filters) bool; ``window``
     is ``"total"``, ``"manoeuvring"`` or ``"non-manoeuvring"``.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> e = rng.chisquare(2, size=(50, 1, 90)) * 200.0
+    >>> f"{rmse_estimate(e, np.zeros((50, 1), dtype=bool)):.1f}"
+    '20.2 [19.9, 20.4]'
     """
     e, failed = _runs_filters(pos_err2, failed)
     return _rmse_estimate(_window_mse(e), failed, f, window)
@@ -592,7 +727,16 @@ def rmse_estimate(pos_err2, failed, f=0, *, window="total"):
 def rmse_estimate_mse(mse, failed, f=0, *, window="total"):
     """:func:`rmse_estimate` from the per-run window mean squares ``mse`` (runs,
     filters, 3) = :func:`window_mse` of ``pos_err2``: the same numbers, bit for bit,
-    from stored per-run metrics instead of the error series."""
+    from stored per-run metrics instead of the error series.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> e = rng.chisquare(2, size=(50, 1, 90)) * 200.0
+    >>> failed = np.zeros((50, 1), dtype=bool)
+    >>> rmse_estimate_mse(window_mse(e), failed) == rmse_estimate(e, failed)
+    True
+    """
     m, failed = _mse_failed(mse, failed)
     return _rmse_estimate(m, failed, f, window)
 
@@ -616,6 +760,16 @@ def rmse_ratio(pos_err2, failed, num, den=0, *, window="total", survivors="own")
     ``survivors="common"``: only the runs where **no** filter in ``failed``
     failed; the interval is :func:`trackcore.stats.ratio_ci` of the per-run
     mean squared errors, whose square root is the RMSE ratio.
+
+    Examples
+    --------
+    Filter 1 has half the mean squared error of filter 0, so about 71 % of its RMSE:
+
+    >>> rng = np.random.default_rng(0)
+    >>> e = rng.chisquare(2, size=(50, 2, 90)) * np.array([200.0, 100.0])[:, None]
+    >>> failed = np.zeros((50, 2), dtype=bool)
+    >>> f"{rmse_ratio(e, failed, 1, 0):.1%}"
+    '70.5 [69.2, 72.0] %'
     """
     e, failed = _runs_filters(pos_err2, failed)
     return _rmse_ratio(_window_mse(e), failed, num, den, window, survivors)
@@ -623,7 +777,16 @@ def rmse_ratio(pos_err2, failed, num, den=0, *, window="total", survivors="own")
 
 def rmse_ratio_mse(mse, failed, num, den=0, *, window="total", survivors="own"):
     """:func:`rmse_ratio` from the per-run window mean squares ``mse`` (runs, filters,
-    3) = :func:`window_mse` of ``pos_err2`` (the same numbers, bit for bit)."""
+    3) = :func:`window_mse` of ``pos_err2`` (the same numbers, bit for bit).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> e = rng.chisquare(2, size=(50, 2, 90)) * np.array([200.0, 100.0])[:, None]
+    >>> failed = np.zeros((50, 2), dtype=bool)
+    >>> rmse_ratio_mse(window_mse(e), failed, 1, 0) == rmse_ratio(e, failed, 1, 0)
+    True
+    """
     m, failed = _mse_failed(mse, failed)
     return _rmse_ratio(m, failed, num, den, window, survivors)
 
@@ -659,6 +822,15 @@ class HoulesTable(NamedTuple):
     and ``ratio_common[f][w]`` as :func:`rmse_ratio` with ``survivors="own"`` and
     ``"common"`` (the reference filter's ratio is exactly 1); ``fail_rate[f]``
     with its Wilson interval.
+
+    Examples
+    --------
+    >>> e = np.random.default_rng(0).chisquare(2, size=(50, 1, 90)) * 200.0
+    >>> failed = np.zeros((50, 1), dtype=bool)
+    >>> failed[0] = True
+    >>> table = houles_table(e, failed)
+    >>> table.n_ok.tolist(), table.n_common, f"{table.ratio[0][0]:.0%}"
+    ([49], 49, '100 [100, 100] %')
     """
     rmse: tuple
     ratio: tuple
@@ -675,6 +847,17 @@ def houles_table(pos_err2, failed, *, reference=0):
 
     ``pos_err2`` (runs, F, 90) squared position errors at t = 1..90;
     ``failed`` (runs, F) bool.
+
+    Examples
+    --------
+    One filter over 50 runs, one of them failed:
+
+    >>> e = np.random.default_rng(0).chisquare(2, size=(50, 1, 90)) * 200.0
+    >>> failed = np.zeros((50, 1), dtype=bool)
+    >>> failed[0] = True
+    >>> table = houles_table(e, failed)
+    >>> f"{table.rmse[0][0]:.1f}", f"{table.fail_rate[0]:.1%}"
+    ('20.2 [19.9, 20.4]', '2.0 [0.4, 10.5] %')
     """
     e, failed = _runs_filters(pos_err2, failed)
     runs, nF, _ = e.shape
