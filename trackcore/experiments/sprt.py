@@ -40,7 +40,10 @@ and the chapter's declared geometry family (index, "Readings"; issue 27):
   prior of eq 28, the target filters at the printed and the 20 % prior, each decoy
   filter's prior alone, the decoy's speed and sigma_v) on the 1000 runs of its seed
   (seed + n), with the target-filter pair, a0's NIS, a1's sign of 1/r and the IMM's mode
-  probabilities, and the paper's filters decided at every threshold of MATCH_GAMMAS.
+  probabilities, and the paper's filters decided at every threshold of MATCH_GAMMAS;
+* ``sprt-obs-s1``: the observability of the decoy filter (02-matched-filters): whether
+  b0's inverse range ends negative, in the six cells of S1's family, on the 1000 runs of
+  S1's evidence (seed + 1).
 """
 from __future__ import annotations
 
@@ -454,3 +457,40 @@ for _n in (1, 2, 3):
         trial=_filters_trial, call=_cells_call, extract=_filters_extract,
         config=SprtCellsConfig(_n, tuple(c for _, c in filters_cells())),
         seed=SEED + _n, runs=1000, version="1", notebook=_NB06))
+
+
+#: The observability of the decoy filter (02-matched-filters; sprt-observability, declared
+#: before its runs): S1 in the six cells of the declared family (G-A first; lead 0: the
+#: pursuer heads at the decoy, whose bearing does not change; lead -15 or +15: it does),
+#: on the 1000 runs of S1's evidence (seed + 1; the first 200 are 02's runs in G-A).
+OBS_GEOMETRIES = CALIB_GEOMETRIES
+
+
+def _obs_trial(rng, scenario, cells, h1_true):
+    """One run of every cell from the same generator state: whether the decoy filter on
+    the decoy (b0) ends the run with a negative inverse range, and its last estimate of
+    1/r relative to the true one minus 1."""
+    neg = np.empty(len(cells), dtype=np.int8)
+    err = np.empty(len(cells))
+    for j, sc, out in _each_cell(rng, scenario, cells, h1_true):
+        _, _, truth = _cell(scenario, cells[j])
+        d = truth.acm - truth.own[-1, :2]
+        neg[j] = out.beta[-1, 0] < 0
+        err[j] = out.beta[-1, 0] * np.hypot(d[0], d[1]) - 1.0
+    return neg, err
+
+
+def _obs_extract(out, config):
+    neg, err = out
+    return {"neg_end": neg, "rel_err_end": err}
+
+
+register(Experiment(
+    name="sprt-obs-s1",
+    description=("SPRT chapter, observability of the decoy filter in S1: b0's inverse range "
+                 "at the end (negative? relative error) in the six cells of the declared "
+                 "family (45/0, 33.8/0, 33.8/-15, 33.8/+15, 45/-15, 45/+15) on the same runs"),
+    trial=_obs_trial, call=_cells_call, extract=_obs_extract,
+    config=SprtCellsConfig(1, tuple(family_cell(1, a, lead) for a, lead in OBS_GEOMETRIES)),
+    seed=SEED + 1, runs=1000, version="1",
+    notebook="book/002-sprt-acm/02-matched-filters.ipynb"))
