@@ -108,7 +108,23 @@ def _cell(scenario, cell):
 class SprtCellsConfig(_Config):
     """Scenario ``scenario`` (1, 2 or 3) of the paper under each of ``cells`` (a
     non-empty tuple of distinct ``"name=value;..."`` strings of scenario and filter
-    changes, ``""`` the paper's settings), with ``H1`` true when ``h1_true``."""
+    changes, ``""`` the paper's settings), with ``H1`` true when ``h1_true``.
+
+    Examples
+    --------
+    >>> from trackcore.experiments.sprt import SprtCellsConfig, cell_of
+    >>> c = SprtCellsConfig(1, ("", cell_of(alpha_deg=45.0, lead_deg=-15.0)))
+    >>> c.cells
+    ('', 'alpha_deg=45.0;lead_deg=-15.0')
+    >>> SprtCellsConfig(4)
+    Traceback (most recent call last):
+    ...
+    ValueError: scenario must be 1, 2 or 3, got 4
+    >>> SprtCellsConfig(1, ("alpha=3",))  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: cell 'alpha=3': unknown setting 'alpha'; ...
+    """
 
     scenario: int
     cells: tuple = ("",)
@@ -163,7 +179,18 @@ def _cells_extract(out, config):
 
 def cell_of(**changes):
     """The cell string of scenario and filter ``changes`` (in the order given), e.g.
-    ``cell_of(alpha_deg=45.0, lead_deg=0.0)`` is ``"alpha_deg=45.0;lead_deg=0.0"``."""
+    ``cell_of(alpha_deg=45.0, lead_deg=0.0)`` is ``"alpha_deg=45.0;lead_deg=0.0"``.
+
+    Examples
+    --------
+    >>> from trackcore.experiments.sprt import cell_of
+    >>> cell_of(alpha_deg=45.0, lead_deg=0.0)
+    'alpha_deg=45.0;lead_deg=0.0'
+    >>> cell_of(beta_std_factor=0.2, target_model="boost")
+    'beta_std_factor=0.2;target_model=boost'
+    >>> cell_of()  # the paper's settings
+    ''
+    """
     for name, value in changes.items():
         if isinstance(value, bool) or not isinstance(value, (str, int, float)):
             raise TypeError(f"{name} must be a number or a str, got {value!r}")
@@ -174,7 +201,20 @@ def decision_summary(d, k, min_runs=None):
     """The success rate (Wilson interval) and the mean decision scan on success
     (bootstrap interval; ``None`` with fewer than ``min_runs`` successes, default
     :data:`trackcore.stats.MIN_RUNS`) of decisions ``d`` and decision scans ``k``,
-    with ``d`` and ``k`` as int64 arrays: ``{"d", "k", "success", "ksucc"}``."""
+    with ``d`` and ``k`` as int64 arrays: ``{"d", "k", "success", "ksucc"}``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.experiments.sprt import decision_summary
+    >>> d = np.array([0] * 45 + [1] * 5)      # 45 right decisions, 5 wrong
+    >>> k = np.arange(50) % 7 + 2             # their decision scans
+    >>> r = decision_summary(d, k)
+    >>> f"{r['success']:.1%}", f"{r['ksucc']:.2f}"
+    ('90.0 [78.6, 95.7] %', '4.87 [4.25, 5.49]')
+    >>> decision_summary(d[:10], k[:10])["ksucc"] is None   # fewer than MIN_RUNS successes
+    True
+    """
     from ..stats import MIN_RUNS, mean_ci, rate_ci
 
     d = np.asarray(d).astype(np.int64)
@@ -202,7 +242,16 @@ T10_MODELS = {
 
 
 def t10_cell(model):
-    """The cell of T10's target filter ``model`` with the 20 % prior of 1/r."""
+    """The cell of T10's target filter ``model`` with the 20 % prior of 1/r.
+
+    Examples
+    --------
+    >>> from trackcore.experiments.sprt import t10_cell
+    >>> t10_cell("boost")
+    'beta_std_factor=0.2;target_model=boost'
+    >>> t10_cell("imm_cue")
+    'beta_std_factor=0.2;target_model=imm;mu_release=1.0'
+    """
     return cell_of(beta_std_factor=0.2, **T10_MODELS[model])
 
 
@@ -337,7 +386,18 @@ CALIB_STATS = ("full", "dec", "tgt")
 def calib_statistics(lam):
     """The three statistics of :data:`CALIB_STATS` from ``lam[..., :] = [Lambda_a0,
     Lambda_b0, Lambda_a1, Lambda_b1]``, stacked on a new last axis; the first is
-    :func:`~trackcore.trackers.sprt_acm_llr`'s eq (21), the sum of the other two."""
+    :func:`~trackcore.trackers.sprt_acm_llr`'s eq (21), the sum of the other two.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.experiments.sprt import calib_statistics
+    >>> lam = np.array([[1.0, 2.0, 0.5, 3.0],     # Lambda_a0, b0, a1, b1 at scan 1
+    ...                 [2.0, 4.0, 1.0, 5.0]])    # and at scan 2
+    >>> calib_statistics(lam)                     # Lambda, decoy pair, target pair
+    array([[ 0.5, -1.5,  2. ],
+           [ 0. , -3. ,  3. ]])
+    """
     lam = np.asarray(lam, dtype=float)
     if lam.ndim < 1 or lam.shape[-1] != 4:
         raise ValueError(f"lam must have last dimension 4 (a0, b0, a1, b1), got shape "
