@@ -43,7 +43,9 @@ and the chapter's declared geometry family (index, "Readings"; issue 27):
   probabilities, and the paper's filters decided at every threshold of MATCH_GAMMAS;
 * ``sprt-obs-s1``: the observability of the decoy filter (02-matched-filters): whether
   b0's inverse range ends negative, in the six cells of S1's family, on the 1000 runs of
-  S1's evidence (seed + 1).
+  S1's evidence (seed + 1);
+* ``sprt-early-s1-family``: Lambda's fall over scans 1-5 minus its fall over scans 6-10
+  (03-scenarios), in the six cells of S1's family, on S1's 5000 verdict runs (seed + 500).
 """
 from __future__ import annotations
 
@@ -554,3 +556,29 @@ register(Experiment(
     config=SprtCellsConfig(1, tuple(family_cell(1, a, lead) for a, lead in OBS_GEOMETRIES)),
     seed=SEED + 1, runs=1000, version="1",
     notebook="book/002-sprt-acm/02-matched-filters.ipynb"))
+
+
+def _early_trial(rng, scenario, cells, h1_true):
+    """One run of every cell from the same generator state: Lambda's change over scans
+    1-5 minus its change over scans 6-10, ``2 Lambda(5) - Lambda(10)`` (the measure of
+    sprt-fig5-early-scans)."""
+    out = np.empty(len(cells))
+    for j, _sc, res in _each_cell(rng, scenario, cells, h1_true):
+        out[j] = 2.0 * res.llr[4] - res.llr[9]
+    return out
+
+
+def _early_extract(out, config):
+    return {"early_fall": out}
+
+
+register(Experiment(
+    name="sprt-early-s1-family",
+    description=("SPRT chapter, the early fall of Lambda (scans 1-5 against 6-10) in S1's "
+                 "declared family (45/0, 33.8/0, 33.8/-15, 33.8/+15, 45/-15, 45/+15) on "
+                 "S1's verdict runs"),
+    trial=_early_trial, call=_cells_call, extract=_early_extract,
+    config=SprtCellsConfig(1, tuple(family_cell(1, a, lead)
+                                    for a, lead in CALIB_GEOMETRIES)),
+    seed=SEED + 500, runs=5000, version="1",
+    notebook="book/002-sprt-acm/03-scenarios.ipynb"))
