@@ -68,3 +68,33 @@ def test_in_mrad_leaves_lambda_unchanged():
 def test_in_mrad_rejects_a_bad_shape():
     with pytest.raises(ValueError, match="lam"):
         sb.in_mrad(np.zeros((3, 5)))
+
+
+def test_annotated_heatmap_prints_every_cell():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots()
+    val = np.array([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]])
+    im = sb.annotated_heatmap(ax, val, [0.0, 5.0, 10.0], [-1.0, 1.0], cmap="viridis",
+                              vrange=(0, 6), fmt="{:.0f}", dark=lambda v: v > 3)
+    texts = [(t.get_text(), t.get_color()) for t in ax.texts]
+    assert len(texts) == 6, f"{len(texts)} labels"
+    assert texts[0] == ("1", "k") and texts[-1] == ("6", "w"), texts
+    assert list(im.get_extent()) == [-2.5, 12.5, -3.5, 3.5], im.get_extent()
+    plt.close(fig)
+
+
+def test_annotated_heatmap_rejects_a_mismatched_grid():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots()
+    with pytest.raises(ValueError, match="val"):
+        sb.annotated_heatmap(ax, np.zeros((2, 2)), [0.0, 1.0, 2.0], [0.0, 1.0],
+                             cmap="viridis", vrange=(0, 1), fmt="{}", dark=bool)
+    plt.close(fig)
