@@ -46,3 +46,55 @@ def test_central_jacobian_matches_modified_polar_F():
 def test_central_jacobian_rejects_bad_input(x, steps):
     with pytest.raises(ValueError, match="x must|steps must"):
         sb.central_jacobian(lambda v: v, x, steps)
+
+
+def test_in_mrad_lowers_each_filter_by_its_bearing_count():
+    lam = np.zeros((2, 3, 4))
+    out = sb.in_mrad(lam)
+    h = 0.5 * np.log(1e6)
+    assert np.allclose(out[0, :, 0], -h * np.array([1, 2, 3])), "target filter a0"
+    assert np.allclose(out[1, :, 1], -h * np.array([0, 1, 2])), "decoy filter b0"
+    assert np.array_equal(out[..., 0], out[..., 3]), "a0 and b1 alike"
+    assert np.array_equal(out[..., 1], out[..., 2]), "b0 and a1 alike"
+
+
+def test_in_mrad_leaves_lambda_unchanged():
+    lam = np.random.default_rng(0).normal(size=(5, 16, 4))
+    m = sb.in_mrad(lam)
+    llr = lambda x: -x[..., 0] - x[..., 1] + x[..., 2] + x[..., 3]
+    assert np.allclose(llr(m), llr(lam)), "the bearing unit changes Lambda"
+
+
+def test_in_mrad_rejects_a_bad_shape():
+    with pytest.raises(ValueError, match="lam"):
+        sb.in_mrad(np.zeros((3, 5)))
+
+
+def test_annotated_heatmap_prints_every_cell():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots()
+    val = np.array([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]])
+    im = sb.annotated_heatmap(ax, val, [0.0, 5.0, 10.0], [-1.0, 1.0], cmap="viridis",
+                              vrange=(0, 6), fmt="{:.0f}", dark=lambda v: v > 3)
+    texts = [(t.get_text(), t.get_color()) for t in ax.texts]
+    assert len(texts) == 6, f"{len(texts)} labels"
+    assert texts[0] == ("1", "k") and texts[-1] == ("6", "w"), texts
+    assert list(im.get_extent()) == [-2.5, 12.5, -3.5, 3.5], im.get_extent()
+    plt.close(fig)
+
+
+def test_annotated_heatmap_rejects_a_mismatched_grid():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots()
+    with pytest.raises(ValueError, match="val"):
+        sb.annotated_heatmap(ax, np.zeros((2, 2)), [0.0, 1.0, 2.0], [0.0, 1.0],
+                             cmap="viridis", vrange=(0, 1), fmt="{}", dark=bool)
+    plt.close(fig)

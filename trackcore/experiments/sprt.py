@@ -40,7 +40,12 @@ and the chapter's declared geometry family (index, "Readings"; issue 27):
   prior of eq 28, the target filters at the printed and the 20 % prior, each decoy
   filter's prior alone, the decoy's speed and sigma_v) on the 1000 runs of its seed
   (seed + n), with the target-filter pair, a0's NIS, a1's sign of 1/r and the IMM's mode
-  probabilities, and the paper's filters decided at every threshold of MATCH_GAMMAS.
+  probabilities, and the paper's filters decided at every threshold of MATCH_GAMMAS;
+* ``sprt-obs-s1``: the observability of the decoy filter (02-matched-filters): whether
+  b0's inverse range ends negative, in the six cells of S1's family, on the 1000 runs of
+  S1's evidence (seed + 1);
+* ``sprt-early-s1-family``: Lambda's fall over scans 1-5 minus its fall over scans 6-10
+  (03-scenarios), in the six cells of S1's family, on S1's 5000 verdict runs (seed + 500).
 """
 from __future__ import annotations
 
@@ -105,7 +110,23 @@ def _cell(scenario, cell):
 class SprtCellsConfig(_Config):
     """Scenario ``scenario`` (1, 2 or 3) of the paper under each of ``cells`` (a
     non-empty tuple of distinct ``"name=value;..."`` strings of scenario and filter
-    changes, ``""`` the paper's settings), with ``H1`` true when ``h1_true``."""
+    changes, ``""`` the paper's settings), with ``H1`` true when ``h1_true``.
+
+    Examples
+    --------
+    >>> from trackcore.experiments.sprt import SprtCellsConfig, cell_of
+    >>> c = SprtCellsConfig(1, ("", cell_of(alpha_deg=45.0, lead_deg=-15.0)))
+    >>> c.cells
+    ('', 'alpha_deg=45.0;lead_deg=-15.0')
+    >>> SprtCellsConfig(4)
+    Traceback (most recent call last):
+    ...
+    ValueError: scenario must be 1, 2 or 3, got 4
+    >>> SprtCellsConfig(1, ("alpha=3",))  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: cell 'alpha=3': unknown setting 'alpha'; ...
+    """
 
     scenario: int
     cells: tuple = ("",)
@@ -160,7 +181,18 @@ def _cells_extract(out, config):
 
 def cell_of(**changes):
     """The cell string of scenario and filter ``changes`` (in the order given), e.g.
-    ``cell_of(alpha_deg=45.0, lead_deg=0.0)`` is ``"alpha_deg=45.0;lead_deg=0.0"``."""
+    ``cell_of(alpha_deg=45.0, lead_deg=0.0)`` is ``"alpha_deg=45.0;lead_deg=0.0"``.
+
+    Examples
+    --------
+    >>> from trackcore.experiments.sprt import cell_of
+    >>> cell_of(alpha_deg=45.0, lead_deg=0.0)
+    'alpha_deg=45.0;lead_deg=0.0'
+    >>> cell_of(beta_std_factor=0.2, target_model="boost")
+    'beta_std_factor=0.2;target_model=boost'
+    >>> cell_of()  # the paper's settings
+    ''
+    """
     for name, value in changes.items():
         if isinstance(value, bool) or not isinstance(value, (str, int, float)):
             raise TypeError(f"{name} must be a number or a str, got {value!r}")
@@ -171,7 +203,20 @@ def decision_summary(d, k, min_runs=None):
     """The success rate (Wilson interval) and the mean decision scan on success
     (bootstrap interval; ``None`` with fewer than ``min_runs`` successes, default
     :data:`trackcore.stats.MIN_RUNS`) of decisions ``d`` and decision scans ``k``,
-    with ``d`` and ``k`` as int64 arrays: ``{"d", "k", "success", "ksucc"}``."""
+    with ``d`` and ``k`` as int64 arrays: ``{"d", "k", "success", "ksucc"}``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.experiments.sprt import decision_summary
+    >>> d = np.array([0] * 45 + [1] * 5)      # 45 right decisions, 5 wrong
+    >>> k = np.arange(50) % 7 + 2             # their decision scans
+    >>> r = decision_summary(d, k)
+    >>> f"{r['success']:.1%}", f"{r['ksucc']:.2f}"
+    ('90.0 [78.6, 95.7] %', '4.87 [4.25, 5.49]')
+    >>> decision_summary(d[:10], k[:10])["ksucc"] is None   # fewer than MIN_RUNS successes
+    True
+    """
     from ..stats import MIN_RUNS, mean_ci, rate_ci
 
     d = np.asarray(d).astype(np.int64)
@@ -199,7 +244,16 @@ T10_MODELS = {
 
 
 def t10_cell(model):
-    """The cell of T10's target filter ``model`` with the 20 % prior of 1/r."""
+    """The cell of T10's target filter ``model`` with the 20 % prior of 1/r.
+
+    Examples
+    --------
+    >>> from trackcore.experiments.sprt import t10_cell
+    >>> t10_cell("boost")
+    'beta_std_factor=0.2;target_model=boost'
+    >>> t10_cell("imm_cue")
+    'beta_std_factor=0.2;target_model=imm;mu_release=1.0'
+    """
     return cell_of(beta_std_factor=0.2, **T10_MODELS[model])
 
 
@@ -334,7 +388,18 @@ CALIB_STATS = ("full", "dec", "tgt")
 def calib_statistics(lam):
     """The three statistics of :data:`CALIB_STATS` from ``lam[..., :] = [Lambda_a0,
     Lambda_b0, Lambda_a1, Lambda_b1]``, stacked on a new last axis; the first is
-    :func:`~trackcore.trackers.sprt_acm_llr`'s eq (21), the sum of the other two."""
+    :func:`~trackcore.trackers.sprt_acm_llr`'s eq (21), the sum of the other two.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.experiments.sprt import calib_statistics
+    >>> lam = np.array([[1.0, 2.0, 0.5, 3.0],     # Lambda_a0, b0, a1, b1 at scan 1
+    ...                 [2.0, 4.0, 1.0, 5.0]])    # and at scan 2
+    >>> calib_statistics(lam)                     # Lambda, decoy pair, target pair
+    array([[ 0.5, -1.5,  2. ],
+           [ 0. , -3. ,  3. ]])
+    """
     lam = np.asarray(lam, dtype=float)
     if lam.ndim < 1 or lam.shape[-1] != 4:
         raise ValueError(f"lam must have last dimension 4 (a0, b0, a1, b1), got shape "
@@ -454,3 +519,66 @@ for _n in (1, 2, 3):
         trial=_filters_trial, call=_cells_call, extract=_filters_extract,
         config=SprtCellsConfig(_n, tuple(c for _, c in filters_cells())),
         seed=SEED + _n, runs=1000, version="1", notebook=_NB06))
+
+
+#: The observability of the decoy filter (02-matched-filters; sprt-observability, declared
+#: before its runs): S1 in the six cells of the declared family (G-A first; lead 0: the
+#: pursuer heads at the decoy, whose bearing does not change; lead -15 or +15: it does),
+#: on the 1000 runs of S1's evidence (seed + 1; the first 200 are 02's runs in G-A).
+OBS_GEOMETRIES = CALIB_GEOMETRIES
+
+
+def _obs_trial(rng, scenario, cells, h1_true):
+    """One run of every cell from the same generator state: whether the decoy filter on
+    the decoy (b0) ends the run with a negative inverse range, and its last estimate of
+    1/r relative to the true one minus 1."""
+    neg = np.empty(len(cells), dtype=np.int8)
+    err = np.empty(len(cells))
+    for j, sc, out in _each_cell(rng, scenario, cells, h1_true):
+        _, _, truth = _cell(scenario, cells[j])
+        d = truth.acm - truth.own[-1, :2]
+        neg[j] = out.beta[-1, 0] < 0
+        err[j] = out.beta[-1, 0] * np.hypot(d[0], d[1]) - 1.0
+    return neg, err
+
+
+def _obs_extract(out, config):
+    neg, err = out
+    return {"neg_end": neg, "rel_err_end": err}
+
+
+register(Experiment(
+    name="sprt-obs-s1",
+    description=("SPRT chapter, observability of the decoy filter in S1: b0's inverse range "
+                 "at the end (negative? relative error) in the six cells of the declared "
+                 "family (45/0, 33.8/0, 33.8/-15, 33.8/+15, 45/-15, 45/+15) on the same runs"),
+    trial=_obs_trial, call=_cells_call, extract=_obs_extract,
+    config=SprtCellsConfig(1, tuple(family_cell(1, a, lead) for a, lead in OBS_GEOMETRIES)),
+    seed=SEED + 1, runs=1000, version="1",
+    notebook="book/002-sprt-acm/02-matched-filters.ipynb"))
+
+
+def _early_trial(rng, scenario, cells, h1_true):
+    """One run of every cell from the same generator state: Lambda's change over scans
+    1-5 minus its change over scans 6-10, ``2 Lambda(5) - Lambda(10)`` (the measure of
+    sprt-fig5-early-scans)."""
+    out = np.empty(len(cells))
+    for j, _sc, res in _each_cell(rng, scenario, cells, h1_true):
+        out[j] = 2.0 * res.llr[4] - res.llr[9]
+    return out
+
+
+def _early_extract(out, config):
+    return {"early_fall": out}
+
+
+register(Experiment(
+    name="sprt-early-s1-family",
+    description=("SPRT chapter, the early fall of Lambda (scans 1-5 against 6-10) in S1's "
+                 "declared family (45/0, 33.8/0, 33.8/-15, 33.8/+15, 45/-15, 45/+15) on "
+                 "S1's verdict runs"),
+    trial=_early_trial, call=_cells_call, extract=_early_extract,
+    config=SprtCellsConfig(1, tuple(family_cell(1, a, lead)
+                                    for a, lead in CALIB_GEOMETRIES)),
+    seed=SEED + 500, runs=5000, version="1",
+    notebook="book/002-sprt-acm/03-scenarios.ipynb"))

@@ -9,6 +9,8 @@ result of the book; the notebooks use these helpers to check the public function
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 __all__: list[str] = []  # private: nothing is re-exported
@@ -122,3 +124,40 @@ def bound_verdict(est, bound):
     if est.lo > bound:
         return "violates"
     return "undecided"
+
+
+#: 1/2 ln 10^6: the change of -1/2 ln det V per bearing datum when the bearing is in mrad
+#: instead of rad (its variance 10^6 times larger)
+HALF_LN_1E6 = 0.5 * math.log(1e6)
+
+
+def in_mrad(lam):
+    """``lam[..., k, :] = [Lambda_a0, Lambda_b0, Lambda_a1, Lambda_b1]`` at scans
+    ``k = 1, 2, ...`` (second-to-last axis) with the bearing in mrad instead of rad: each
+    bearing datum lowers its filter's -1/2 ln det V by 1/2 ln 10^6 (the target filters
+    hold one from scan 1, the decoy filters one from scan 2)."""
+    lam = np.asarray(lam, dtype=float)
+    if lam.ndim < 2 or lam.shape[-1] != 4:
+        raise ValueError(f"lam must have shape (..., scans, 4), got {lam.shape}")
+    k = np.arange(1, lam.shape[-2] + 1)
+    return lam - HALF_LN_1E6 * np.stack([k, k - 1, k - 1, k], axis=-1)
+
+
+def annotated_heatmap(ax, val, xs, ys, *, cmap, vrange, fmt, dark, half=(2.5, 2.5)):
+    """Draw ``val[i, j]`` (row ``i`` at ``ys[i]``, column ``j`` at ``xs[j]``) on ``ax`` as
+    an image with each cell's value printed in it (``fmt.format(v)``; white where
+    ``dark(v)``), cells ``2 * half`` wide (x, y); returns the image for a colour bar."""
+    val = np.asarray(val, dtype=float)
+    xs, ys = np.asarray(xs, dtype=float), np.asarray(ys, dtype=float)
+    if val.shape != (ys.size, xs.size):
+        raise ValueError(f"val must have shape ({ys.size}, {xs.size}), got {val.shape}")
+    ext = [xs[0] - half[0], xs[-1] + half[0], ys[0] - half[1], ys[-1] + half[1]]
+    im = ax.imshow(val, origin="lower", cmap=cmap, vmin=vrange[0], vmax=vrange[1],
+                   aspect="auto", extent=ext)
+    for i, y in enumerate(ys):
+        for j, x in enumerate(xs):
+            v = val[i, j]
+            ax.text(x, y, fmt.format(v), ha="center", va="center", fontsize=6,
+                    color="w" if dark(v) else "k")
+    ax.grid(False)
+    return im
