@@ -1,4 +1,4 @@
-"""Feature-JPDA chapter (004): the template cells still to run, HOTA, and the
+"""Feature-JPDA chapter (004): the template cells the readings runs left out, HOTA, and the
 occlusion map (issue 29).
 
 ``fjpda-templates-<key>``, one experiment per ambiguity scene of
