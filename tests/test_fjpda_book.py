@@ -93,3 +93,42 @@ def test_interval_ends():
     assert fb.interval_ends(0.25) == (0.25, 0.25, 0.25), "no interval: the value"
     with pytest.raises(ValueError, match="d must"):
         fb.interval_ends(float("nan"))
+
+
+def test_tsi_scan():
+    sprite, bar = np.ones((3, 4), bool), np.ones((2, 6), bool)
+    d = fb.tsi_scan([(1, 2), (3, 4)], sprite)
+    assert d.z.shape == (2, 2) and d.z[1].tolist() == [3.0, 4.0], "centroids as given"
+    assert all(m is sprite for m in d.masks), "the sprite for every point by default"
+    assert fb.tsi_scan([(1, 2)], sprite, [bar]).masks[0] is bar, "given masks are used"
+    with pytest.raises(ValueError, match="masks must"):
+        fb.tsi_scan([(1, 2), (3, 4)], sprite, [bar])
+
+
+def test_tsi_panel_and_log_row():
+    track = _track(4, "tentative", 30.0, 20.0)
+    tracker_track = SimpleNamespace(tid=4, x=np.array([30.0, 20.0, 2.0, 1.0]))
+    fig, ax = plt.subplots()
+    fb.tsi_panel(ax, [(10, 10), (60, 60)], [(30, 20)], _report(track), [tracker_track])
+    assert len(ax.patches) == 2, "a gate circle per stored measurement"
+    assert [ln.get_label() for ln in ax.lines] == ["stored", "measurements"], "markers"
+    assert [t.get_text() for t in ax.texts] == ["", "4: tentative"], "arrow and label"
+    assert ax.get_xlim() == (0, 95) and ax.get_ylim() == (95, 0), "y down, 95 px"
+    plt.close(fig)
+    assert fb.tsi_log_row(2, _report(track), 3) == (2, "4 tentative", 3), "the row"
+    assert fb.tsi_log_row(0, _report(), 3)[1] == "none", "no tracks: none"
+    with pytest.raises(ValueError):
+        fb.tsi_log_row(-1, _report(), 0)
+
+
+def test_state_diagram():
+    nodes = {"a": (0.1, 0.5), "b": (0.9, 0.5), "deleted": (0.5, 0.1)}
+    fig, ax = plt.subplots()
+    fb.state_diagram(ax, nodes, [("a", "b", "hit", 0.0, 0.0)], "note")
+    texts = [t.get_text() for t in ax.texts]
+    assert texts == ["a", "b", "deleted", "", "hit", "note"], "states, arrow, note"
+    colours = [t.get_bbox_patch().get_facecolor() for t in ax.texts[:3]]
+    assert colours[0] == colours[1] != colours[2], "the alert state shaded apart"
+    plt.close(fig)
+    with pytest.raises(ValueError, match="not nodes"):
+        fb.state_diagram(ax, nodes, [("a", "c", "hit", 0.0, 0.0)], "note")

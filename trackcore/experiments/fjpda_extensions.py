@@ -44,6 +44,16 @@ class FjpdaCrossingConfig(_Config):
     likelihood ratio of FJPDA-LR (fitted in the notebook); ``heading_b_deg`` vehicle
     B's heading (degrees), ``pd``, ``n_frames`` and ``conflict`` the scene's detection
     probability, length and frame of closest approach.
+
+    Examples
+    --------
+    >>> config = FjpdaCrossingConfig(3.0)
+    >>> config.trackers, round(config.lam * 1e5, 3), config.n_frames
+    (('JPDA', 'FJPDA'), 6.944, 36)
+    >>> FjpdaCrossingConfig(-1.0)
+    Traceback (most recent call last):
+        ...
+    ValueError: min_sep must be >= 0, got -1.0
     """
 
     min_sep: float

@@ -79,7 +79,21 @@ class FjpdaReadingsConfig(_Config):
     """One scene of the readings runs: ``scene`` (a scene of
     :func:`~trackcore.scenarios.feature_scenes.render_scene` among ``jitter``,
     ``glare``, ``side_by_side``, ``occlusion``, ``S3``), camera ``jitter`` (px, the
-    trackers matched to it) and ``extras`` (``("s3",)`` adds :data:`S3_VARIANTS`)."""
+    trackers matched to it) and ``extras`` (``("s3",)`` adds :data:`S3_VARIANTS`).
+
+    Examples
+    --------
+    S3 runs the four reading cells beside JPDA, then its ablations:
+
+    >>> config = FjpdaReadingsConfig("S3", 5.0, ("s3",))
+    >>> labels = list(config.variants())
+    >>> len(labels), labels[:3], labels[-1]
+    (10, ['JPDA', 'FJPDA', 'FJPDA, canvas, fixed'], 'FJPDA, c_I 0.8')
+    >>> FjpdaReadingsConfig("S4", 5.0)
+    Traceback (most recent call last):
+        ...
+    ValueError: scene must be one of ('jitter', 'glare', 'side_by_side', 'occlusion', 'S3'), got 'S4'
+    """
 
     scene: str
     jitter: float
@@ -163,7 +177,14 @@ SCENE_KEYS = {"glare": "glare", "side-by-side": "side", "occlusion": "occl",
 class NoInterval(float):
     """A mean (difference) whose runs are too few or (nearly) all equal: no interval
     exists, and it formats as ``"<value> (no interval)"`` (read as undecided); its
-    ``lo`` and ``hi`` are NaN, so no comparison with them holds."""
+    ``lo`` and ``hi`` are NaN, so no comparison with them holds.
+
+    Examples
+    --------
+    >>> d = NoInterval(0.25)
+    >>> format(d, ".2f"), d.value, d.lo <= 0 <= d.hi
+    ('0.25 (no interval)', 0.25, False)
+    """
 
     lo = hi = float("nan")
 
@@ -179,7 +200,21 @@ def estimate(interval, *values):
     """``interval(*values)`` (an interval of :mod:`trackcore.stats`, e.g. ``mean_ci``
     or ``paired_diff_ci``), or, where it refuses the runs (fewer than ``MIN_RUNS``,
     or (nearly) all equal), the point value as a :class:`NoInterval` (a mean, or for
-    two samples the mean difference)."""
+    two samples the mean difference).
+
+    Examples
+    --------
+    Paired runs give their interval; runs all equal have none:
+
+    >>> from trackcore.stats import mean_ci, paired_diff_ci
+    >>> rng = np.random.default_rng(1)
+    >>> x = rng.normal(1.0, 0.5, 40)
+    >>> y = x + 0.3 + rng.normal(0.0, 0.2, 40)
+    >>> format(estimate(paired_diff_ci, x, y), ".2f")
+    '-0.27 [-0.32, -0.22]'
+    >>> format(estimate(mean_ci, np.full(50, 2.0)), ".2f")
+    '2.00 (no interval)'
+    """
     try:
         return interval(*values)
     except ValueError:
@@ -192,7 +227,18 @@ def per_run(res, tracker, measure):
     eligible frames; a run without an eligible frame counts 0 of 0 as NaN and is
     refused), ``"coverage"``, ``"events_same"`` (events per frame with the feature
     gate minus those of the same tracks without it), or a stored field
-    (``false_tracks``, ``false_glare``, ``mm_idf1``, ...)."""
+    (``false_tracks``, ``false_glare``, ``mm_idf1``, ...).
+
+    Examples
+    --------
+    A store's columns (here a dict of two runs):
+
+    >>> res = {"JPDA.tmr_num": np.array([8, 9]), "JPDA.tmr_den": np.array([10, 10]),
+    ...        "JPDA.mean_events": np.array([3.0, 4.0]),
+    ...        "JPDA.mean_events_kin": np.array([3.5, 4.0])}
+    >>> per_run(res, "JPDA", "tmr").tolist(), per_run(res, "JPDA", "events_same").tolist()
+    ([0.8, 0.9], [-0.5, 0.0])
+    """
     def col(f):
         return np.asarray(res[f"{tracker}.{f}"], float)
 
@@ -210,7 +256,20 @@ def compare(x, y, names=("A", "B"), lower_is_better=True):
     """:func:`~trackcore.scenarios.feature_metrics.paired_comparison` of per-run
     values, except where no interval exists (fewer than ``MIN_RUNS`` runs, or the
     paired differences (nearly) all equal): then the difference is a
-    :class:`NoInterval` and the verdict ``"no interval"``, never a tie."""
+    :class:`NoInterval` and the verdict ``"no interval"``, never a tie.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(1)
+    >>> x = rng.normal(1.0, 0.5, 40)
+    >>> y = x + 0.3 + rng.normal(0.0, 0.2, 40)
+    >>> c = compare(x, y, ("FJPDA", "JPDA"))
+    >>> format(c.diff, ".2f"), c.verdict, c.a_better, c.b_better
+    ('-0.27 [-0.32, -0.22]', 'FJPDA better', 39, 1)
+    >>> c = compare(np.full(40, 2.0), np.full(40, 1.5), ("FJPDA", "JPDA"))
+    >>> format(c.diff, ".2f"), c.verdict
+    ('0.50 (no interval)', 'no interval')
+    """
     from ..scenarios.feature_metrics import PairedComparison, paired_comparison
     from ..stats import mcnemar_exact
 

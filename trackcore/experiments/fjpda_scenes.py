@@ -79,7 +79,19 @@ class FjpdaSceneConfig(_Config):
     :func:`~trackcore.scenarios.feature_scenes.render_scene` among ``jitter``,
     ``glare``, ``side_by_side``, ``occlusion``, ``S3``), camera ``jitter`` (px, the
     trackers matched to it) and ``ablations`` run on the same detections (keys among
-    ``gate``, ``tsi``, ``rho``, ``guard``, ``memory``, ``dup``)."""
+    ``gate``, ``tsi``, ``rho``, ``guard``, ``memory``, ``dup``).
+
+    Examples
+    --------
+    JPDA and FJPDA, then the trackers of each ablation:
+
+    >>> list(FjpdaSceneConfig("glare", 5.0, ("tsi",)).variants())
+    ['JPDA', 'FJPDA', 'FJPDA, TSI from unvalidated']
+    >>> FjpdaSceneConfig("glare", 5.0, ("wind",))
+    Traceback (most recent call last):
+        ...
+    ValueError: unknown ablation 'wind' in ablations; expected some of ('gate', 'tsi', 'rho', 'guard', 'memory', 'dup')
+    """
 
     scene: str
     jitter: float

@@ -1,4 +1,4 @@
-"""Feature-JPDA chapter (004): the template cells still to run, HOTA, and the
+"""Feature-JPDA chapter (004): the template cells the readings runs left out, HOTA, and the
 occlusion map (issue 29).
 
 ``fjpda-templates-<key>``, one experiment per ambiguity scene of
@@ -62,7 +62,19 @@ _MAP_FIELDS = ("tmr_num", "tmr_den", "false_tracks")
 @dataclass(frozen=True)
 class FjpdaTemplatesConfig(_Config):
     """One scene (as :class:`~trackcore.experiments.fjpda_readings.FjpdaReadingsConfig`:
-    ``scene`` and camera ``jitter`` px) run with :data:`TEMPLATE_VARIANTS`."""
+    ``scene`` and camera ``jitter`` px) run with :data:`TEMPLATE_VARIANTS`.
+
+    Examples
+    --------
+    JPDA, the two cells shared with the readings runs, then :data:`NEW_CELLS`:
+
+    >>> config = FjpdaTemplatesConfig("S3", 5.0)
+    >>> labels = list(config.variants())
+    >>> len(labels), labels[2], labels[-1]
+    (7, 'FJPDA, sliding, fixed', 'FJPDA, sliding, first fully visible')
+    >>> config.variants()[labels[-1]].template_from
+    'fully_visible'
+    """
 
     scene: str
     jitter: float
@@ -115,7 +127,21 @@ def _templates_extract(out, config):
 @dataclass(frozen=True)
 class FjpdaOcclusionMapConfig(_Config):
     """The occlusion map: crossing ``offsets`` (px, each in [0, 30]), ``memory``
-    lengths (frames, whole numbers in [1, 100]) and camera ``jitter`` (px)."""
+    lengths (frames, whole numbers in [1, 100]) and camera ``jitter`` (px).
+
+    Examples
+    --------
+    JPDA and the four FJPDA cells at each memory length:
+
+    >>> config = FjpdaOcclusionMapConfig()
+    >>> labels = list(config.variants())
+    >>> len(labels), labels[:5]
+    (15, ['JPDA m1', 'cu m1', 'cf m1', 'su m1', 'sf m1'])
+    >>> FjpdaOcclusionMapConfig(memory=(1.5,))
+    Traceback (most recent call last):
+        ...
+    ValueError: memory must hold whole numbers in [1, 100], got 1.5
+    """
 
     offsets: tuple = MAP_OFFSETS
     memory: tuple = MAP_MEMORY

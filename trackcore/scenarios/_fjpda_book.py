@@ -120,3 +120,72 @@ def interval_ends(d):
     if not np.isfinite(v):
         raise ValueError(f"d must be an interval estimate or a finite number, got {d!r}")
     return v, v, v
+
+
+def tsi_scan(points, sprite, masks=None):
+    """The detections of one scripted frame: centroids ``points`` (x, y px), each with
+    silhouette ``sprite`` unless ``masks`` (one per point) are given; empty boxes and
+    zero areas (the track-management checks of 03 read only centroids and silhouettes)."""
+    from ..detection.image import ImageDetections
+
+    z = np.array(points, float).reshape(-1, 2)
+    masks = [sprite] * len(z) if masks is None else list(masks)
+    if len(masks) != len(z):
+        raise ValueError(f"masks must hold one silhouette per point: {len(z)} points, "
+                         f"{len(masks)} masks")
+    return ImageDetections(
+        z, np.zeros((len(z), 4), np.int64), np.zeros(len(z), np.int64), masks, masks
+    )
+
+
+def tsi_panel(ax, prev, points, report, tracks, gate=8.0, size=95):
+    """Draw one frame of the TSI walk-through: the stored measurements ``prev`` with
+    their ``gate`` px circles, the frame's measurements ``points``, and each track of
+    ``report`` with its velocity arrow (from ``tracks``, the tracker's tracks) and its
+    ``"<id>: <status>"`` label, in a ``size`` px square window (y down)."""
+    import matplotlib.pyplot as plt
+
+    prev, p = np.asarray(prev, float).reshape(-1, 2), np.array(points, float)
+    for q in prev:
+        ax.add_patch(plt.Circle(q, gate, fill=False, ls=":", color="0.5"))
+    ax.plot(prev[:, 0], prev[:, 1], "s", mfc="none", color="0.5", label="stored")
+    ax.plot(p[:, 0], p[:, 1], "o", color="C0", label="measurements")
+    velocity = {t.tid: t.x[2:] for t in tracks}
+    for s in report.tracks:
+        v = velocity[s.tid]
+        ax.annotate("", (s.x, s.y), (s.x - v[0], s.y - v[1]),
+                    arrowprops={"arrowstyle": "->", "color": "C3"})
+        ax.text(s.x + 2, s.y - 3, f"{s.tid}: {s.status}", color="C3", fontsize=7)
+    ax.set_xlabel("x (px)")
+    ax.set_xlim(0, size)
+    ax.set_ylim(size, 0)
+
+
+def tsi_log_row(k, report, stored):
+    """``(frame k, "<id> <status>, ..." or "none", stored measurements)``."""
+    tracks = ", ".join(f"{s.tid} {s.status}" for s in report.tracks) or "none"
+    return (as_int(k, "k", minimum=0), tracks, as_int(stored, "stored", minimum=0))
+
+
+def state_diagram(ax, nodes, edges, note, alert=("deleted",)):
+    """Draw a state machine: ``nodes`` ``{name: (x, y)}`` in axes units (the names in
+    ``alert`` shaded red), ``edges`` ``(from, to, label, rad, dy)`` arrows (``rad`` the
+    arc's curvature, ``dy`` a vertical offset) and a centred ``note`` below them."""
+    missing = {n for a, b, *_ in edges for n in (a, b)} - set(nodes)
+    if missing:
+        raise ValueError(f"edges name states that are not nodes: {sorted(missing)}")
+    for n, (x0, y0) in nodes.items():
+        fc = "#f4cccc" if n in alert else "0.92"
+        ax.text(x0, y0, n, ha="center", va="center", fontsize=10,
+                bbox={"boxstyle": "round", "fc": fc, "ec": "k"})
+    for a, b, label, rad, dy in edges:
+        (x0, y0), (x1, y1) = nodes[a], nodes[b]
+        arrow = {"arrowstyle": "->", "connectionstyle": f"arc3,rad={rad}",
+                 "shrinkA": 28, "shrinkB": 28}
+        ax.annotate("", (x1, y1 + dy), (x0, y0 + dy), arrowprops=arrow)
+        ax.text((x0 + x1) / 2, (y0 + y1) / 2 + dy + 0.07 * np.sign(rad or 1), label,
+                ha="center", fontsize=8)
+    ax.text(0.5, 0.25, note, ha="center", fontsize=8)
+    ax.set_xlim(0, 1)
+    ax.set_ylim(0, 0.8)
+    ax.axis("off")
