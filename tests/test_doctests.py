@@ -46,6 +46,14 @@ WITH_EXAMPLES = [
     "trackcore.association.hpda",
     "trackcore.association.existence",
     "trackcore.experiments.registry",
+    "trackcore.scenarios.houles",
+    "trackcore.experiments.tom_cause",
+    "trackcore.experiments.tom_pg1",
+    "trackcore.experiments.sprt",
+    "trackcore.experiments.fjpda_extensions",
+    "trackcore.experiments.fjpda_readings",
+    "trackcore.experiments.fjpda_scenes",
+    "trackcore.experiments.fjpda_templates",
 ]
 
 
