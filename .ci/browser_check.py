@@ -1,9 +1,13 @@
 """Open every page of the built book in headless Chromium and report what a reader would see
 go wrong: console errors and warnings, uncaught exceptions, resources that fail to load, and
-MathJax errors (``mjx-merror`` elements after typesetting), and tables wider than the text
+MathJax errors (``mjx-merror`` elements after typesetting), tables wider than the text
 column at a desktop width (1400 px): a table may be wider than the column only inside a
 scrolling box that shows a visible "scroll sideways" cue (``book/_static/wide_tables.js``
-marks such boxes ``tc-wide``; ``book.css`` draws the cue), otherwise it is a problem.
+marks such boxes ``tc-wide``; ``book.css`` draws the cue), otherwise it is a problem; and
+verdict badges that a reader cannot see without scrolling: every verdict badge in the first
+column of a table (the scorecard's and each chapter's claim tables) must lie wholly inside
+the viewport and every clipping box around it as the page opens, and the scorecard page
+must show at least one.
 
 Usage: python .ci/browser_check.py [_build/html] [--width PX] [--tables]   (needs /usr/bin/chromium; Debian package
 ``chromium``). Drives Chromium over the DevTools protocol with ``websocket-client`` (pinned in
@@ -120,6 +124,39 @@ MEASURE_TABLES = """
 """
 
 
+# Verdict badges (sphinx-design badges) in the first column of a table, and those not wholly
+# visible as the page opens: outside the viewport or outside a clipping/scrolling ancestor.
+MEASURE_BADGES = """
+(() => {
+  const vw = document.documentElement.clientWidth;
+  const hidden = [];
+  let n = 0;
+  for (const b of document.querySelectorAll('table td:first-child .sd-badge')) {
+    const r = b.getBoundingClientRect();
+    if (r.width === 0 && r.height === 0) continue;   // folded
+    n++;
+    let left = 0, right = vw;
+    for (let a = b.parentElement; a && a !== document.body; a = a.parentElement) {
+      if (getComputedStyle(a).overflowX === 'visible') continue;
+      const ar = a.getBoundingClientRect();
+      left = Math.max(left, ar.left);
+      right = Math.min(right, ar.right);
+    }
+    if (r.left < left - 1 || r.right > right + 1)
+      hidden.push(`${b.textContent.trim()} at x = ${Math.round(r.left)}..${Math.round(r.right)}`
+                  + ` (visible ${Math.round(left)}..${Math.round(right)})`);
+  }
+  return {n: n, hidden: hidden};
+})()
+"""
+
+
+def measure_badges(page: Page) -> dict:
+    """Verdict badges in tables' first columns and those a reader cannot see (MEASURE_BADGES)."""
+    return page.call("Runtime.evaluate", expression=MEASURE_BADGES,
+                     returnByValue=True)["result"]["value"]
+
+
 def measure_tables(page: Page) -> list[dict]:
     """Tables of the current page wider than what a reader sees (see MEASURE_TABLES)."""
     return page.call("Runtime.evaluate", expression=MEASURE_TABLES,
@@ -144,10 +181,15 @@ def check_page(page: Page, url: str) -> list[str]:
     page.drain(0.5)
     wide = measure_tables(page)
     page.last_tables = wide
+    badges = measure_badges(page)
+    page.last_badges = badges["n"]
     # every page is checked as a first visit: forget the theme mode and anything else stored
     page.call("Runtime.evaluate", expression="localStorage.clear(); sessionStorage.clear()")
     problems = [f"table {t['width']} px wide in {t['box']} px without a scroll cue: {t['head']}"
                 for t in wide if not t["cue"]]
+    problems += [f"verdict badge not visible without scrolling: {h}" for h in badges["hidden"][:5]]
+    if url.endswith("/book/scorecard.html") and badges["n"] == 0:
+        problems.append("the scorecard shows no verdict badge in its tables")
     if merrors == -1:
         problems.append("MathJax did not start")
     elif merrors:
@@ -234,13 +276,14 @@ def main(*argv: str) -> int:
     try:
         with browser(width) as page:
             bad = 0
-            n_wide = n_cued = 0
+            n_wide = n_cued = n_badges = 0
             wide_pages = set()
             for p in pages:
                 problems = check_page(page, p.as_uri())
                 rel = p.relative_to(root_path)
                 n_wide += len(page.last_tables)
                 n_cued += sum(t["cue"] for t in page.last_tables)
+                n_badges += page.last_badges
                 if page.last_tables:
                     wide_pages.add(rel)
                 if list_tables:
@@ -258,9 +301,12 @@ def main(*argv: str) -> int:
         return 2
     print(f"browser_check at {width} px: {n_wide} table(s) on {len(wide_pages)} page(s) "
           f"wider than the text column, {n_wide - n_cued} of them without a scroll cue")
+    print(f"browser_check at {width} px: {n_badges} verdict badge(s) in the first column of "
+          f"tables, checked visible without scrolling")
     print(f"browser_check: {len(pages)} pages, {bad} with problems "
           f"(console errors/warnings, exceptions, failed loads, network requests, "
-          f"MathJax errors, tables overflowing without a scroll cue)")
+          f"MathJax errors, tables overflowing without a scroll cue, verdict badges out of "
+          f"view)")
     return 1 if bad else 0
 
 
