@@ -345,3 +345,71 @@ def _register():
 
 
 _register()
+
+
+#: Session 7 (declared before its runs): why C's losses follow the clutter density
+#: differently at the two radii (target T14).  Method C alone on runs 0..WHY_RUNS-1 of the
+#: grid's seed in the baseline and 4x-clutter cells at both radii: the runs T14 pairs, and
+#: C's own runs there (C's filter stream depends only on the run, so its errors equal the
+#: stored cell's; the notebook checks the outcome codes).
+WHY_RUNS = 200
+WHY_SCENARIOS = ("base", "clut4")
+
+
+def _why_scans(track, scans):
+    """Per scan of one PF run: ``1`` when the target's own detection lies inside the
+    window, ``2`` when the window holds only false alarms, ``0`` when it is empty."""
+    k = scans.scan_index
+    n = scans.n_scans
+    inside = np.bincount(k[track.processed], minlength=n)
+    target = np.bincount(k[track.processed & scans.is_target], minlength=n)
+    return np.where(target > 0, 1, np.where(inside > 0, 2, 0)).astype(np.int8)
+
+
+def _why_trial(rng, configs, params, truth):
+    """One run of C (:func:`trackcore.scenarios.tbd_paired_trial` with ``keep=True``):
+    ``SimpleNamespace(errors, kinds)``, ``kinds`` per scan as in :func:`_why_scans`."""
+    from types import SimpleNamespace
+
+    from ..scenarios import tbd_paired_trial
+
+    res = tbd_paired_trial(rng, configs, params, truth, keep=True, nees_methods=())
+    return SimpleNamespace(errors=res.errors["C"],
+                           kinds=_why_scans(res.tracks["C"], res.scans))
+
+
+def _why_extract(out, config):
+    """C's row: ``outcome`` and loss ``onset`` (-1: not lost); the scans before the onset
+    (the whole run if not lost) whose window holds the target's detection (``n_t``), only
+    false alarms (``n_f``) or nothing (``n_e``); ``pre_f`` false-alarm-only scans among
+    the (up to) 10 scans before the onset; ``post_t`` the fraction of the scans from the
+    onset on whose window holds the target's detection (NaN: not lost)."""
+    from ..trackers import tbd_loss_onset
+
+    E = np.asarray(out.errors, dtype=np.float64)
+    onset = tbd_loss_onset(E)
+    end = onset if onset >= 0 else E.size
+    kinds = np.asarray(out.kinds)
+    before = kinds[:end]
+    pre = kinds[max(0, end - 10):end] if onset >= 0 else kinds[:0]
+    post = kinds[end:]
+    return {"outcome": tbd_grid_columns(E[None, :], config.processing_radius)["outcome"],
+            "onset": np.int64(onset), "n_t": np.int64((before == 1).sum()),
+            "n_f": np.int64((before == 2).sum()), "n_e": np.int64((before == 0).sum()),
+            "pre_f": np.int64((pre == 2).sum()),
+            "post_t": np.float64((post == 1).mean()) if post.size else np.float64(np.nan)}
+
+
+def _register_why():
+    for scen in WHY_SCENARIOS:
+        for R, rk in _RADII.items():
+            register(Experiment(
+                name=f"tbd-grid-why-{scen}-{rk}",
+                description=f"TBD grid, why C's losses follow the clutter: C's windows on "
+                            f"the runs of tbd-grid-{scen}-{rk} (per-run numbers)",
+                trial=_why_trial, call=_call, extract=_why_extract,
+                config=TbdGridConfig(trackers=("C",), scenario=scen, processing_radius=R),
+                seed=GRID_SEED, runs=WHY_RUNS, version="1", notebook=_NB))
+
+
+_register_why()
