@@ -348,12 +348,13 @@ _register()
 
 
 #: Session 7 (declared before its runs): why C's losses follow the clutter density
-#: differently at the two radii (target T14).  Method C alone on runs 0..WHY_RUNS-1 of the
-#: grid's seed in the baseline and 4x-clutter cells at both radii: the runs T14 pairs, and
-#: C's own runs there (C's filter stream depends only on the run, so its errors equal the
-#: stored cell's; the notebook checks the outcome codes).
+#: differently at the two radii (target T14), and the detections C processes per scan at
+#: the two radii (Figs 7 and 8).  Method C alone on runs 0..WHY_RUNS-1 of the grid's seed
+#: in every cell: in the baseline and 4x-clutter cells the runs T14 pairs.  C's filter
+#: stream depends only on the run, so its errors equal the stored cell's (the notebook
+#: checks the outcome codes).
 WHY_RUNS = 200
-WHY_SCENARIOS = ("base", "clut4")
+WHY_SCENARIOS = tuple(SCENARIOS)
 
 
 def _why_scans(track, scans):
@@ -368,14 +369,16 @@ def _why_scans(track, scans):
 
 def _why_trial(rng, configs, params, truth):
     """One run of C (:func:`trackcore.scenarios.tbd_paired_trial` with ``keep=True``):
-    ``SimpleNamespace(errors, kinds)``, ``kinds`` per scan as in :func:`_why_scans`."""
+    ``SimpleNamespace(errors, kinds, n_processed)``, ``kinds`` per scan as in
+    :func:`_why_scans` and ``n_processed`` the detections in C's window per scan."""
     from types import SimpleNamespace
 
     from ..scenarios import tbd_paired_trial
 
     res = tbd_paired_trial(rng, configs, params, truth, keep=True, nees_methods=())
     return SimpleNamespace(errors=res.errors["C"],
-                           kinds=_why_scans(res.tracks["C"], res.scans))
+                           kinds=_why_scans(res.tracks["C"], res.scans),
+                           n_processed=res.n_processed["C"])
 
 
 def _why_extract(out, config):
@@ -383,7 +386,8 @@ def _why_extract(out, config):
     (the whole run if not lost) whose window holds the target's detection (``n_t``), only
     false alarms (``n_f``) or nothing (``n_e``); ``pre_f`` false-alarm-only scans among
     the (up to) 10 scans before the onset; ``post_t`` the fraction of the scans from the
-    onset on whose window holds the target's detection (NaN: not lost)."""
+    onset on whose window holds the target's detection (NaN: not lost); ``n_proc`` the
+    mean number of detections in the window per scan before the onset."""
     from ..trackers import tbd_loss_onset
 
     E = np.asarray(out.errors, dtype=np.float64)
@@ -397,6 +401,7 @@ def _why_extract(out, config):
             "onset": np.int64(onset), "n_t": np.int64((before == 1).sum()),
             "n_f": np.int64((before == 2).sum()), "n_e": np.int64((before == 0).sum()),
             "pre_f": np.int64((pre == 2).sum()),
+            "n_proc": np.float64(np.mean(np.asarray(out.n_processed)[:end])),
             "post_t": np.float64((post == 1).mean()) if post.size else np.float64(np.nan)}
 
 
