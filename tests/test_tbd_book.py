@@ -56,3 +56,45 @@ def test_direction_verdict():
         direction_verdict([below], "less")
     with pytest.raises(ValueError, match="at least one"):
         direction_verdict([], "below")
+
+
+def _sweep_stats(counts, radii):
+    from trackcore.stats import Estimate
+
+    e = Estimate(150.0, 140.0, 160.0)
+    one = dict(mean=e, not_lost=None, median=145.0, div=0.02, oth=0.01, tr=0.03,
+               lost=Estimate(0.06, 0.03, 0.09))
+    return {R: {N: dict(one, not_lost=e if N > 10 else None) for N in counts}
+            for R in radii}
+
+
+def test_sweep_figure_draws_one_column_per_radius():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from trackcore.scenarios._tbd_book import sweep_figure
+
+    fig = sweep_figure(_sweep_stats([10, 100, 600], [2500.0, 1000.0]), [10, 100, 600],
+                       [2500.0, 1000.0])
+    try:
+        top = [ax.get_title() for ax in fig.axes[:2]]
+        assert top == ["R = 2.5 km", "R = 1.0 km"], f"column titles {top}"
+        bottom = fig.axes[2]
+        heights = [p.get_height() for p in bottom.patches]
+        # three stacked bars per N: diverged, still lost, transient
+        assert len(heights) == 9, f"{len(heights)} bars, expected 3 per N"
+        assert np.allclose(sorted(set(np.round(heights, 3))), [0.01, 0.02, 0.03]), (
+            f"bar heights {heights}")
+    finally:
+        plt.close(fig)
+
+
+def test_sweep_figure_names_what_is_missing():
+    from trackcore.scenarios._tbd_book import sweep_figure
+
+    with pytest.raises(ValueError, match="stats lacks"):
+        sweep_figure(_sweep_stats([10], [2500.0]), [10, 600], [2500.0])
+    with pytest.raises(ValueError, match="counts and radii"):
+        sweep_figure({}, [], [2500.0])

@@ -88,7 +88,18 @@ def _tracker(key, R, scenario):
 @dataclass(frozen=True)
 class TbdGridConfig(_Config):
     """One cell of the grid: ``trackers`` (keys of :func:`_tracker`) on the same runs,
-    ``scenario`` (a key of :data:`SCENARIOS`) at ``processing_radius`` (m)."""
+    ``scenario`` (a key of :data:`SCENARIOS`) at ``processing_radius`` (m).
+
+    Examples
+    --------
+    >>> from trackcore.experiments.tbd_grid import TbdGridConfig
+    >>> cfg = TbdGridConfig(scenario="clut4", processing_radius=1000.0)
+    >>> cfg.trackers, cfg.scenario, cfg.processing_radius
+    (('A', 'B', 'C'), 'clut4', 1000.0)
+    >>> prm, truth = cfg.radar()
+    >>> print(prm.processing_radius, truth.states.shape)
+    1000.0 (250, 6)
+    """
 
     trackers: tuple = ("A", "B", "C")
     scenario: str = "base"
@@ -117,7 +128,15 @@ class TbdGridConfig(_Config):
 class TbdGridEverywhereConfig(TbdGridConfig):
     """A cell of the grid with **clutter everywhere** (the metric reading's fourth value):
     the base field plus lattice cubes of side ``cube`` (m) drawn wherever a tracker's
-    window leaves it (:func:`trackcore.scenarios.tbd_radar._everywhere_trial`)."""
+    window leaves it (:func:`trackcore.scenarios.tbd_radar._everywhere_trial`).
+
+    Examples
+    --------
+    >>> from trackcore.experiments.tbd_grid import TbdGridEverywhereConfig
+    >>> cfg = TbdGridEverywhereConfig()
+    >>> cfg.scenario, cfg.processing_radius, cfg.cube
+    ('base', 2500.0, 5000.0)
+    """
 
     cube: float = 5000.0
 
@@ -132,7 +151,14 @@ class TbdGridEverywhereConfig(TbdGridConfig):
 
 
 def tbd_grid_capped(errors, processing_radius):
-    """``errors`` (E_err, m) capped at ``processing_radius + CLUTTER_MARGIN``."""
+    """``errors`` (E_err, m) capped at ``processing_radius + CLUTTER_MARGIN``.
+
+    Examples
+    --------
+    >>> from trackcore.experiments.tbd_grid import tbd_grid_capped
+    >>> tbd_grid_capped([120.0, 9000.0], 2500.0)
+    array([ 120., 7500.])
+    """
     E = np.asarray(errors, dtype=np.float64)
     return np.minimum(E, float(processing_radius) + CLUTTER_MARGIN)
 
@@ -147,7 +173,20 @@ _STATS = {"100": ("m100", "c100"), "all": ("mall", "call"), "sd": ("sd", "sdc")}
 
 def tbd_grid_lost(outcome, loss):
     """Boolean ``(runs, trackers)``: the runs counted as lost under ``loss``
-    (:data:`LOSSES`), from the stored outcome codes ``outcome (runs, trackers)``."""
+    (:data:`LOSSES`), from the stored outcome codes ``outcome (runs, trackers)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.experiments.tbd_grid import tbd_grid_lost
+    >>> outcome = np.array([[0, 1, 2], [0, 0, 3]], dtype=np.int8)
+    >>> tbd_grid_lost(outcome, "lost")
+    array([[False,  True,  True],
+           [False, False,  True]])
+    >>> tbd_grid_lost(outcome, "diverged")
+    array([[False, False,  True],
+           [False, False,  True]])
+    """
     code = np.asarray(outcome)
     if code.ndim != 2 or not np.issubdtype(code.dtype, np.integer):
         raise ValueError(f"outcome must be a 2-D integer array, got {code.dtype} "
@@ -171,6 +210,18 @@ def tbd_grid_values(columns, trackers, stat, metric, loss="lost", among=("A", "B
     value of :data:`METRICS` -- ``"paper mean"`` (as printed), ``"capped"`` (E_err capped
     at R + 5 km) or ``"held runs"`` (as printed, on the runs that none of ``among`` lost
     under ``loss``).  Returns ``{tracker: 1-D array}`` (paired: the same runs for all).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.experiments.tbd_grid import tbd_grid_columns, tbd_grid_values
+    >>> E = np.full((2, 3, 20), 200.0)
+    >>> E[1, 1, 5:] = 3000.0  # run 1: B lost
+    >>> cols = tbd_grid_columns(E, 2500.0)
+    >>> tbd_grid_values(cols, "ABC", "all", "paper mean")["B"]
+    array([ 200., 2300.])
+    >>> tbd_grid_values(cols, "ABC", "all", "held runs")["B"]
+    array([200.])
     """
     if stat not in _STATS:
         raise ValueError(f"stat must be one of {tuple(_STATS)}, got {stat!r}")
@@ -205,7 +256,20 @@ def _call(config):
 def tbd_grid_columns(errors, processing_radius):
     """The grid's per-run numbers of the error series ``errors (..., trackers, scans)``
     (m): ``m100``, ``mall``, ``c100``, ``call``, ``sd``, ``sdc`` (float64) and
-    ``outcome`` (int8), each of shape ``(..., trackers)`` (see the module docstring)."""
+    ``outcome`` (int8), each of shape ``(..., trackers)`` (see the module docstring).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.experiments.tbd_grid import tbd_grid_columns
+    >>> E = np.full((2, 3, 20), 200.0)  # runs x trackers x scans
+    >>> E[1, 1, 5:] = 3000.0
+    >>> cols = tbd_grid_columns(E, 2500.0)
+    >>> sorted(cols)
+    ['c100', 'call', 'm100', 'mall', 'outcome', 'sd', 'sdc']
+    >>> cols["mall"][1], cols["outcome"][1]
+    (array([ 200., 2300.,  200.]), array([0, 3, 0], dtype=int8))
+    """
     from ..trackers import tbd_run_outcomes
 
     E = np.asarray(errors, dtype=np.float64)

@@ -1,4 +1,5 @@
-"""Bookkeeping helpers of chapter 003's verdict grid (book/003-tbd-pf/06-verdict-grid).
+"""Bookkeeping helpers of chapter 003 (book/003-tbd-pf): its verdict grid
+(06-verdict-grid) and the particle-count sweep's figure (04-tracking).
 
 Kept out of the notebook so that its cells stay short and the logic is tested
 (tests/test_tbd_book.py).
@@ -9,7 +10,7 @@ import math
 
 from ..stats import MIN_RUNS, compare
 
-__all__ = ["direction_verdict", "variant_effect"]
+__all__ = ["direction_verdict", "sweep_figure", "variant_effect"]
 
 
 def variant_effect(columns, tag, variant, letter, mk, measure, w, a, b, book_val, short,
@@ -24,6 +25,19 @@ def variant_effect(columns, tag, variant, letter, mk, measure, w, a, b, book_val
     ``book_val[key]`` (an ``(effect, verdict)`` pair).  A selected measure with fewer than
     ``MIN_RUNS`` runs gives no interval: the key goes into ``short`` (key -> runs) and the
     effect is ``None``, the verdict ``"n/a"``.  Returns ``(key, effect text, verdict)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios._tbd_book import variant_effect
+    >>> g = np.random.default_rng(0)
+    >>> m = g.lognormal(5.0, 0.3, (60, 3)) + [60.0, 30.0, 0.0]  # A, B, C
+    >>> cols = {k: m for k in ("m100", "mall", "c100", "call", "sd", "sdc")}
+    >>> cols["outcome"] = np.zeros((60, 3), dtype=np.int8)
+    >>> key, effect, verdict = variant_effect(cols, "base_25", "bg", "B", "pm",
+    ...     ("paper mean", "lost"), "all", "B", "A", {}, {})
+    >>> key, effect
+    ('tbd_bg_g_base_25_pm_all_ba', '-22 [-37, -7]')
     """
     from ..experiments.tbd_grid import tbd_grid_values
 
@@ -46,7 +60,19 @@ def variant_effect(columns, tag, variant, letter, mk, measure, w, a, b, book_val
 def direction_verdict(estimates, expect):
     """``"met"`` when every interval of ``estimates`` lies wholly ``expect`` (``"below"``
     or ``"above"``) zero, ``"missed"`` when any lies wholly on the other side, otherwise
-    ``"undecided"`` (an interval that contains zero is a tie)."""
+    ``"undecided"`` (an interval that contains zero is a tie).
+
+    Examples
+    --------
+    >>> from trackcore.scenarios._tbd_book import direction_verdict
+    >>> from trackcore.stats import Estimate
+    >>> lower = Estimate(-0.05, -0.09, -0.01)
+    >>> tie = Estimate(-0.03, -0.07, 0.01)
+    >>> direction_verdict([lower], "below"), direction_verdict([lower, tie], "below")
+    ('met', 'undecided')
+    >>> direction_verdict([lower], "above")
+    'missed'
+    """
     if expect not in ("below", "above"):
         raise ValueError(f"expect must be 'below' or 'above', got {expect!r}")
     ests = list(estimates)
@@ -61,3 +87,74 @@ def direction_verdict(estimates, expect):
     if any(fails):
         return "missed"
     return "met" if all(holds) else "undecided"
+
+
+def sweep_figure(stats, counts, radii):
+    """The particle-count sweep of 04-tracking (Figs 11-12): per radius (columns) the mean
+    error of all runs and of the runs not lost with their intervals and the median run
+    (top, log-log), and the lost fraction split into diverged, still lost and transient
+    runs with the lost fraction's interval (bottom).
+
+    ``stats[R][N]``: a dict with ``mean`` and ``not_lost`` (:class:`~trackcore.stats.Estimate`,
+    ``not_lost`` may be ``None``: too few runs), ``median``, ``div``, ``oth``, ``tr``
+    (fractions) and ``lost`` (an Estimate of the lost fraction) for every ``N`` of
+    ``counts`` and ``R`` of ``radii`` (m).  Returns the matplotlib figure.
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> from trackcore.scenarios._tbd_book import sweep_figure
+    >>> from trackcore.stats import Estimate
+    >>> e = Estimate(150.0, 140.0, 160.0)
+    >>> one = dict(mean=e, not_lost=e, median=145.0, div=0.02, oth=0.0, tr=0.01,
+    ...     lost=Estimate(0.03, 0.01, 0.06))
+    >>> fig = sweep_figure({2500.0: {50: one, 600: one}}, [50, 600], [2500.0])
+    >>> [ax.get_title() for ax in fig.axes]
+    ['R = 2.5 km', '']
+    >>> import matplotlib.pyplot as plt
+    >>> plt.close(fig)
+    """
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    counts, radii = list(counts), list(radii)
+    if not counts or not radii:
+        raise ValueError("counts and radii must each hold at least one value")
+    missing = [(R, N) for R in radii for N in counts if N not in stats.get(R, {})]
+    if missing:
+        raise ValueError(f"stats lacks (R, N) = {missing[:3]}")
+    fig, axes = plt.subplots(2, len(radii), figsize=(7.5, 6.5), sharex=True,
+                             sharey="row", squeeze=False)
+    Ns = np.array(counts, dtype=float)
+    for col, R in enumerate(radii):
+        ax, bx, st = axes[0, col], axes[1, col], stats[R]
+        for key, fmt, lab, off in (("mean", "o-", "mean of all runs", 0.97),
+                                   ("not_lost", "^-", "mean of runs not lost", 1.03)):
+            ok = [N for N in counts if st[N][key] is not None]
+            v = np.array([st[N][key].value for N in ok])
+            lo = np.array([st[N][key].lo for N in ok])
+            hi = np.array([st[N][key].hi for N in ok])
+            ax.errorbar(np.array(ok) * off, v, yerr=[v - lo, hi - v], fmt=fmt, ms=4,
+                        capsize=2, label=lab)
+        ax.plot(Ns, [st[N]["median"] for N in counts], "s--", ms=4, label="median run")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(f"R = {R / 1000:.1f} km")
+        div, oth, tr = (np.array([st[N][k] for N in counts]) for k in ("div", "oth", "tr"))
+        tot = div + oth + tr
+        bx.bar(Ns, div, width=0.25 * Ns, color="C3", label="diverged")
+        bx.bar(Ns, oth, width=0.25 * Ns, bottom=div, color="C5", label="still lost")
+        bx.bar(Ns, tr, width=0.25 * Ns, bottom=div + oth, color="C4", label="transient")
+        lo = np.array([st[N]["lost"].lo for N in counts])
+        hi = np.array([st[N]["lost"].hi for N in counts])
+        bx.errorbar(Ns, tot, yerr=[tot - lo, hi - tot], fmt="none", ecolor="k", capsize=2)
+        bx.set_xlabel("number of particles N")
+        for a in (ax, bx):
+            a.axvline(600, color="0.6", ls=":", lw=1)
+    axes[0, 0].set_ylabel("$E_{err,avg}$, whole run (m)")
+    axes[1, 0].set_ylabel("fraction of runs lost")
+    axes[0, 0].legend(fontsize=8, loc="upper right")
+    axes[1, 0].legend(fontsize=8, loc="upper right")
+    fig.tight_layout()
+    return fig
