@@ -451,7 +451,8 @@ def _why_extract(out, config):
     false alarms (``n_f``) or nothing (``n_e``); ``pre_f`` false-alarm-only scans among
     the (up to) 10 scans before the onset; ``post_t`` the fraction of the scans from the
     onset on whose window holds the target's detection (NaN: not lost); ``n_proc`` the
-    mean number of detections in the window per scan before the onset."""
+    mean number of detections in the window per scan before the onset (NaN: lost from
+    the first scan)."""
     from ..trackers import tbd_loss_onset
 
     E = np.asarray(out.errors, dtype=np.float64)
@@ -465,7 +466,8 @@ def _why_extract(out, config):
             "onset": np.int64(onset), "n_t": np.int64((before == 1).sum()),
             "n_f": np.int64((before == 2).sum()), "n_e": np.int64((before == 0).sum()),
             "pre_f": np.int64((pre == 2).sum()),
-            "n_proc": np.float64(np.mean(np.asarray(out.n_processed)[:end])),
+            "n_proc": np.float64(np.mean(np.asarray(out.n_processed)[:end]) if end
+                                 else np.nan),
             "post_t": np.float64((post == 1).mean()) if post.size else np.float64(np.nan)}
 
 
