@@ -10,7 +10,7 @@ import math
 
 from ..stats import MIN_RUNS, compare
 
-__all__ = ["direction_verdict", "sweep_figure", "variant_effect"]
+__all__ = ["direction_verdict", "sweep_figure", "variant_effect", "why_summary"]
 
 
 def variant_effect(columns, tag, variant, letter, mk, measure, w, a, b, book_val, short,
@@ -158,3 +158,44 @@ def sweep_figure(stats, counts, radii):
     axes[1, 0].legend(fontsize=8, loc="upper right")
     fig.tight_layout()
     return fig
+
+
+def why_summary(columns, n_scans=250):
+    """What C's window held in one cell of ``tbd-grid-why-*`` (06-verdict-grid, T14).
+
+    ``columns``: the stored per-run columns ``onset``, ``n_t``, ``n_f``, ``n_e``,
+    ``pre_f``, ``post_t`` and ``n_proc``; ``n_scans``: the scans of a run.  Returns a dict:
+    ``target``, ``false``, ``empty`` (per run, the shares of the scans before the loss
+    onset whose window held the target's detection, only false alarms, or nothing,
+    :class:`~trackcore.stats.Estimate` over the runs with at least one such scan, ``None``
+    when the share is the same in every run;
+    ``shares`` the per-run arrays behind them, NaN for a run lost from its first scan),
+    ``lost`` (runs lost), ``pre`` (false-alarm-only scans among the up to 10 before the
+    onsets of the lost runs, and how many scans that is), ``post`` (scans from the onsets
+    on whose window held the target's detection, and how many scans that is) and
+    ``onset`` (the median onset scan of the lost runs, NaN if none).
+    """
+    import numpy as np
+
+    from ..stats import mean_ci
+
+    c = {k: np.asarray(columns[k]) for k in
+         ("onset", "n_t", "n_f", "n_e", "pre_f", "post_t")}
+    onset = c["onset"].astype(np.int64).reshape(-1)
+    tot = (c["n_t"] + c["n_f"] + c["n_e"]).reshape(-1).astype(float)
+    if not np.all(tot == np.where(onset >= 0, onset, n_scans)):
+        raise ValueError("the scan classes must count every scan before the onset")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        shares = {k: np.where(tot > 0, c[f"n_{k[0]}"].reshape(-1) / tot, np.nan)
+                  for k in ("target", "false", "empty")}
+    ok = tot > 0
+    out = {k: mean_ci(v[ok]) if np.ptp(v[ok]) > 0 else None for k, v in shares.items()}
+    lost = onset >= 0
+    n_post = n_scans - onset[lost]
+    out.update(
+        shares=shares, lost=int(lost.sum()),
+        pre=(int(c["pre_f"].reshape(-1)[lost].sum()), int(np.minimum(onset[lost], 10).sum())),
+        post=(int(np.rint((c["post_t"].reshape(-1)[lost] * n_post).sum())),
+              int(n_post.sum())),
+        onset=float(np.median(onset[lost])) if lost.any() else float("nan"))
+    return out
