@@ -174,6 +174,20 @@ def why_summary(columns, n_scans=250):
     onsets of the lost runs, and how many scans that is), ``post`` (scans from the onsets
     on whose window held the target's detection, and how many scans that is) and
     ``onset`` (the median onset scan of the lost runs, NaN if none).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios._tbd_book import why_summary
+    >>> g = np.random.default_rng(0)
+    >>> n_f, n_e = g.integers(0, 60, 50), g.integers(0, 20, 50)
+    >>> cols = dict(onset=np.full(50, -1), n_t=250 - n_f - n_e, n_f=n_f, n_e=n_e,
+    ...     pre_f=np.zeros(50), post_t=np.full(50, np.nan))
+    >>> cols['onset'][0], cols['n_t'][0], cols['n_f'][0], cols['n_e'][0] = 20, 10, 8, 2
+    >>> cols['pre_f'][0], cols['post_t'][0] = 6, 0.0
+    >>> s = why_summary(cols)
+    >>> print(f"{s['false']:.3f}", s["lost"], s["pre"], s["post"], s["onset"])
+    0.112 [0.089, 0.137] 1 (6, 10) (0, 230) 20.0
     """
     import numpy as np
 
