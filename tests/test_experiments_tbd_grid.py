@@ -128,3 +128,39 @@ def test_bad_configs_raise_clear_errors():
         TbdGridConfig(processing_radius=1500.0)
     with pytest.raises(ValueError, match="tracker key"):
         TbdGridConfig(trackers=("A", "D"))
+
+
+def test_why_rows_are_cs_runs_of_the_cell():
+    """tbd-grid-why-*: runs 0..2 of C alone at 1 km with 4x clutter carry the outcome
+    codes of C in the cell's stored trial, and their scan classes count every scan."""
+    from trackcore.experiments.tbd_grid import WHY_RUNS, WHY_SCENARIOS
+
+    assert WHY_RUNS == 200 and set(WHY_SCENARIOS) == set(SCENARIOS), "declared cells"
+    why = run_experiment("tbd-grid-why-clut4-10", runs=3, write=False, progress=False)
+    cell = run_experiment("tbd-grid-clut4-10", runs=3, write=False, progress=False)
+    assert np.array_equal(why["outcome"][:, 0], cell["outcome"][:, 2]), "not C's runs"
+    onset = np.asarray(why["onset"])
+    total = why["n_t"] + why["n_f"] + why["n_e"]
+    want = np.where(onset >= 0, onset, 250)
+    assert np.array_equal(total, want), f"scans before the onset {total} vs {want}"
+    assert np.all(why["pre_f"] <= np.minimum(10, total)), "pre_f counts at most 10 scans"
+    assert np.all(why["n_proc"][total > 0] >= 0), "detections per scan"
+
+
+def test_why_scan_classes():
+    from types import SimpleNamespace
+
+    from trackcore.experiments.tbd_grid import _why_extract, _why_scans
+
+    scans = SimpleNamespace(scan_index=np.array([0, 0, 1, 2, 2]), n_scans=4,
+                            is_target=np.array([True, False, False, False, True]))
+    track = SimpleNamespace(processed=np.array([True, True, True, False, False]))
+    assert _why_scans(track, scans).tolist() == [1, 2, 0, 0], "target / false / empty"
+    E = np.full(30, 100.0)
+    E[12:] = 2000.0  # lost from scan 12
+    kinds = np.array([1] * 8 + [2] * 4 + [0] * 10 + [1] * 8, dtype=np.int8)
+    out = SimpleNamespace(errors=E, kinds=kinds, n_processed=np.full(30, 3))
+    row = _why_extract(out, TbdGridConfig(trackers=("C",), processing_radius=1000.0))
+    assert (row["onset"], row["n_t"], row["n_f"], row["n_e"]) == (12, 8, 4, 0), row
+    assert row["pre_f"] == 4 and np.isclose(row["post_t"], 8 / 18), row
+    assert row["n_proc"] == 3.0 and row["outcome"].tolist() == [3], row

@@ -56,3 +56,70 @@ def test_direction_verdict():
         direction_verdict([below], "less")
     with pytest.raises(ValueError, match="at least one"):
         direction_verdict([], "below")
+
+
+def _sweep_stats(counts, radii):
+    from trackcore.stats import Estimate
+
+    e = Estimate(150.0, 140.0, 160.0)
+    one = dict(mean=e, not_lost=None, median=145.0, div=0.02, oth=0.01, tr=0.03,
+               lost=Estimate(0.06, 0.03, 0.09))
+    return {R: {N: dict(one, not_lost=e if N > 10 else None) for N in counts}
+            for R in radii}
+
+
+def test_sweep_figure_draws_one_column_per_radius():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from trackcore.scenarios._tbd_book import sweep_figure
+
+    fig = sweep_figure(_sweep_stats([10, 100, 600], [2500.0, 1000.0]), [10, 100, 600],
+                       [2500.0, 1000.0])
+    try:
+        top = [ax.get_title() for ax in fig.axes[:2]]
+        assert top == ["R = 2.5 km", "R = 1.0 km"], f"column titles {top}"
+        bottom = fig.axes[2]
+        heights = [p.get_height() for p in bottom.patches]
+        # three stacked bars per N: diverged, still lost, transient
+        assert len(heights) == 9, f"{len(heights)} bars, expected 3 per N"
+        assert np.allclose(sorted(set(np.round(heights, 3))), [0.01, 0.02, 0.03]), (
+            f"bar heights {heights}")
+    finally:
+        plt.close(fig)
+
+
+def test_sweep_figure_names_what_is_missing():
+    from trackcore.scenarios._tbd_book import sweep_figure
+
+    with pytest.raises(ValueError, match="stats lacks"):
+        sweep_figure(_sweep_stats([10], [2500.0]), [10, 600], [2500.0])
+    with pytest.raises(ValueError, match="counts and radii"):
+        sweep_figure({}, [], [2500.0])
+
+
+def test_why_summary_counts_the_windows():
+    from trackcore.scenarios._tbd_book import why_summary
+
+    g = np.random.default_rng(1)
+    n = 60
+    n_f, n_e = g.integers(0, 60, n), g.integers(0, 20, n)
+    cols = dict(onset=np.full(n, -1), n_t=250 - n_f - n_e, n_f=n_f, n_e=n_e,
+                pre_f=np.zeros(n, dtype=int), post_t=np.full(n, np.nan))
+    # run 0 lost at scan 20 (6 of its 10 scans before held only false alarms, then
+    # the target in a quarter of the 230 scans after); run 1 lost at scan 0
+    cols["onset"][:2] = 20, 0
+    cols["n_t"][:2], cols["n_f"][:2], cols["n_e"][:2] = (10, 0), (8, 0), (2, 0)
+    cols["pre_f"][0], cols["post_t"][:2] = 6, (0.25, 0.0)
+    s = why_summary(cols)
+    assert s["lost"] == 2 and s["pre"] == (6, 10), s
+    assert s["post"] == (round(0.25 * 230), 230 + 250), s
+    assert s["onset"] == 10.0, s
+    assert np.isnan(s["shares"]["false"][1]), "a run lost at its first scan has no share"
+    want = np.r_[8 / 20, (n_f / 250)[2:]]
+    assert np.isclose(s["false"].value, want.mean()), (s["false"].value, want.mean())
+    cols["n_e"][5] += 1
+    with pytest.raises(ValueError, match="every scan before the onset"):
+        why_summary(cols)

@@ -59,6 +59,13 @@ class TbdExtensionsConfig(_Config):
     ``pseudo_sigma`` (m): method A's pseudo-measurement noise in ``"scenario"``
     (0 elsewhere); ``map_threshold`` (dB): the second threshold of ``"maps"``
     (0 elsewhere).
+
+    Examples
+    --------
+    >>> from trackcore.experiments.tbd_extensions import TbdExtensionsConfig
+    >>> cfg = TbdExtensionsConfig(block="pda", processing_radius=1000.0)
+    >>> cfg.block, cfg.fluctuation, cfg.pseudo_sigma
+    ('pda', 'lognormal', 0.0)
     """
 
     block: str
@@ -139,7 +146,16 @@ def _ablations(base):
 @functools.lru_cache(maxsize=32)
 def tbd_extension_trackers(config) -> dict:
     """The trackers of ``config`` (a :class:`TbdExtensionsConfig`): ``{label: config}``
-    in the page's order (the order of the stored per-tracker columns)."""
+    in the page's order (the order of the stored per-tracker columns).
+
+    Examples
+    --------
+    >>> from trackcore.experiments.tbd_extensions import (
+    ...     TbdExtensionsConfig, tbd_extension_trackers)
+    >>> trk = tbd_extension_trackers(TbdExtensionsConfig(block="pda"))
+    >>> {k: c.method for k, c in trk.items()}
+    {'C': 'C', 'P': 'P'}
+    """
     if not isinstance(config, TbdExtensionsConfig):
         raise TypeError(f"config must be a TbdExtensionsConfig, got {type(config).__name__}")
     R = config.processing_radius

@@ -88,7 +88,18 @@ def _tracker(key, R, scenario):
 @dataclass(frozen=True)
 class TbdGridConfig(_Config):
     """One cell of the grid: ``trackers`` (keys of :func:`_tracker`) on the same runs,
-    ``scenario`` (a key of :data:`SCENARIOS`) at ``processing_radius`` (m)."""
+    ``scenario`` (a key of :data:`SCENARIOS`) at ``processing_radius`` (m).
+
+    Examples
+    --------
+    >>> from trackcore.experiments.tbd_grid import TbdGridConfig
+    >>> cfg = TbdGridConfig(scenario="clut4", processing_radius=1000.0)
+    >>> cfg.trackers, cfg.scenario, cfg.processing_radius
+    (('A', 'B', 'C'), 'clut4', 1000.0)
+    >>> prm, truth = cfg.radar()
+    >>> print(prm.processing_radius, truth.states.shape)
+    1000.0 (250, 6)
+    """
 
     trackers: tuple = ("A", "B", "C")
     scenario: str = "base"
@@ -117,7 +128,15 @@ class TbdGridConfig(_Config):
 class TbdGridEverywhereConfig(TbdGridConfig):
     """A cell of the grid with **clutter everywhere** (the metric reading's fourth value):
     the base field plus lattice cubes of side ``cube`` (m) drawn wherever a tracker's
-    window leaves it (:func:`trackcore.scenarios.tbd_radar._everywhere_trial`)."""
+    window leaves it (:func:`trackcore.scenarios.tbd_radar._everywhere_trial`).
+
+    Examples
+    --------
+    >>> from trackcore.experiments.tbd_grid import TbdGridEverywhereConfig
+    >>> cfg = TbdGridEverywhereConfig()
+    >>> cfg.scenario, cfg.processing_radius, cfg.cube
+    ('base', 2500.0, 5000.0)
+    """
 
     cube: float = 5000.0
 
@@ -132,7 +151,14 @@ class TbdGridEverywhereConfig(TbdGridConfig):
 
 
 def tbd_grid_capped(errors, processing_radius):
-    """``errors`` (E_err, m) capped at ``processing_radius + CLUTTER_MARGIN``."""
+    """``errors`` (E_err, m) capped at ``processing_radius + CLUTTER_MARGIN``.
+
+    Examples
+    --------
+    >>> from trackcore.experiments.tbd_grid import tbd_grid_capped
+    >>> tbd_grid_capped([120.0, 9000.0], 2500.0)
+    array([ 120., 7500.])
+    """
     E = np.asarray(errors, dtype=np.float64)
     return np.minimum(E, float(processing_radius) + CLUTTER_MARGIN)
 
@@ -147,7 +173,20 @@ _STATS = {"100": ("m100", "c100"), "all": ("mall", "call"), "sd": ("sd", "sdc")}
 
 def tbd_grid_lost(outcome, loss):
     """Boolean ``(runs, trackers)``: the runs counted as lost under ``loss``
-    (:data:`LOSSES`), from the stored outcome codes ``outcome (runs, trackers)``."""
+    (:data:`LOSSES`), from the stored outcome codes ``outcome (runs, trackers)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.experiments.tbd_grid import tbd_grid_lost
+    >>> outcome = np.array([[0, 1, 2], [0, 0, 3]], dtype=np.int8)
+    >>> tbd_grid_lost(outcome, "lost")
+    array([[False,  True,  True],
+           [False, False,  True]])
+    >>> tbd_grid_lost(outcome, "diverged")
+    array([[False, False,  True],
+           [False, False,  True]])
+    """
     code = np.asarray(outcome)
     if code.ndim != 2 or not np.issubdtype(code.dtype, np.integer):
         raise ValueError(f"outcome must be a 2-D integer array, got {code.dtype} "
@@ -171,6 +210,18 @@ def tbd_grid_values(columns, trackers, stat, metric, loss="lost", among=("A", "B
     value of :data:`METRICS` -- ``"paper mean"`` (as printed), ``"capped"`` (E_err capped
     at R + 5 km) or ``"held runs"`` (as printed, on the runs that none of ``among`` lost
     under ``loss``).  Returns ``{tracker: 1-D array}`` (paired: the same runs for all).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.experiments.tbd_grid import tbd_grid_columns, tbd_grid_values
+    >>> E = np.full((2, 3, 20), 200.0)
+    >>> E[1, 1, 5:] = 3000.0  # run 1: B lost
+    >>> cols = tbd_grid_columns(E, 2500.0)
+    >>> tbd_grid_values(cols, "ABC", "all", "paper mean")["B"]
+    array([ 200., 2300.])
+    >>> tbd_grid_values(cols, "ABC", "all", "held runs")["B"]
+    array([200.])
     """
     if stat not in _STATS:
         raise ValueError(f"stat must be one of {tuple(_STATS)}, got {stat!r}")
@@ -205,7 +256,20 @@ def _call(config):
 def tbd_grid_columns(errors, processing_radius):
     """The grid's per-run numbers of the error series ``errors (..., trackers, scans)``
     (m): ``m100``, ``mall``, ``c100``, ``call``, ``sd``, ``sdc`` (float64) and
-    ``outcome`` (int8), each of shape ``(..., trackers)`` (see the module docstring)."""
+    ``outcome`` (int8), each of shape ``(..., trackers)`` (see the module docstring).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.experiments.tbd_grid import tbd_grid_columns
+    >>> E = np.full((2, 3, 20), 200.0)  # runs x trackers x scans
+    >>> E[1, 1, 5:] = 3000.0
+    >>> cols = tbd_grid_columns(E, 2500.0)
+    >>> sorted(cols)
+    ['c100', 'call', 'm100', 'mall', 'outcome', 'sd', 'sdc']
+    >>> cols["mall"][1], cols["outcome"][1]
+    (array([ 200., 2300.,  200.]), array([0, 3, 0], dtype=int8))
+    """
     from ..trackers import tbd_run_outcomes
 
     E = np.asarray(errors, dtype=np.float64)
@@ -345,3 +409,78 @@ def _register():
 
 
 _register()
+
+
+#: Session 7 (declared before its runs): why C's losses follow the clutter density
+#: differently at the two radii (target T14), and the detections C processes per scan at
+#: the two radii (Figs 7 and 8).  Method C alone on runs 0..WHY_RUNS-1 of the grid's seed
+#: in every cell: in the baseline and 4x-clutter cells the runs T14 pairs.  C's filter
+#: stream depends only on the run, so its errors equal the stored cell's (the notebook
+#: checks the outcome codes).
+WHY_RUNS = 200
+WHY_SCENARIOS = tuple(SCENARIOS)
+
+
+def _why_scans(track, scans):
+    """Per scan of one PF run: ``1`` when the target's own detection lies inside the
+    window, ``2`` when the window holds only false alarms, ``0`` when it is empty."""
+    k = scans.scan_index
+    n = scans.n_scans
+    inside = np.bincount(k[track.processed], minlength=n)
+    target = np.bincount(k[track.processed & scans.is_target], minlength=n)
+    return np.where(target > 0, 1, np.where(inside > 0, 2, 0)).astype(np.int8)
+
+
+def _why_trial(rng, configs, params, truth):
+    """One run of C (:func:`trackcore.scenarios.tbd_paired_trial` with ``keep=True``):
+    ``SimpleNamespace(errors, kinds, n_processed)``, ``kinds`` per scan as in
+    :func:`_why_scans` and ``n_processed`` the detections in C's window per scan."""
+    from types import SimpleNamespace
+
+    from ..scenarios import tbd_paired_trial
+
+    res = tbd_paired_trial(rng, configs, params, truth, keep=True, nees_methods=())
+    return SimpleNamespace(errors=res.errors["C"],
+                           kinds=_why_scans(res.tracks["C"], res.scans),
+                           n_processed=res.n_processed["C"])
+
+
+def _why_extract(out, config):
+    """C's row: ``outcome`` and loss ``onset`` (-1: not lost); the scans before the onset
+    (the whole run if not lost) whose window holds the target's detection (``n_t``), only
+    false alarms (``n_f``) or nothing (``n_e``); ``pre_f`` false-alarm-only scans among
+    the (up to) 10 scans before the onset; ``post_t`` the fraction of the scans from the
+    onset on whose window holds the target's detection (NaN: not lost); ``n_proc`` the
+    mean number of detections in the window per scan before the onset (NaN: lost from
+    the first scan)."""
+    from ..trackers import tbd_loss_onset
+
+    E = np.asarray(out.errors, dtype=np.float64)
+    onset = tbd_loss_onset(E)
+    end = onset if onset >= 0 else E.size
+    kinds = np.asarray(out.kinds)
+    before = kinds[:end]
+    pre = kinds[max(0, end - 10):end] if onset >= 0 else kinds[:0]
+    post = kinds[end:]
+    return {"outcome": tbd_grid_columns(E[None, :], config.processing_radius)["outcome"],
+            "onset": np.int64(onset), "n_t": np.int64((before == 1).sum()),
+            "n_f": np.int64((before == 2).sum()), "n_e": np.int64((before == 0).sum()),
+            "pre_f": np.int64((pre == 2).sum()),
+            "n_proc": np.float64(np.mean(np.asarray(out.n_processed)[:end]) if end
+                                 else np.nan),
+            "post_t": np.float64((post == 1).mean()) if post.size else np.float64(np.nan)}
+
+
+def _register_why():
+    for scen in WHY_SCENARIOS:
+        for R, rk in _RADII.items():
+            register(Experiment(
+                name=f"tbd-grid-why-{scen}-{rk}",
+                description=f"TBD grid, why C's losses follow the clutter: C's windows on "
+                            f"the runs of tbd-grid-{scen}-{rk} (per-run numbers)",
+                trial=_why_trial, call=_call, extract=_why_extract,
+                config=TbdGridConfig(trackers=("C",), scenario=scen, processing_radius=R),
+                seed=GRID_SEED, runs=WHY_RUNS, version="1", notebook=_NB))
+
+
+_register_why()

@@ -69,6 +69,13 @@ class TbdTrackingConfig(_Config):
     ``processing_radius`` (m; 2500 or 1000 for the calibrated A); ``nees_scans``: the
     first scans of the method-A trackers' NEES stored (0: none); ``snr0_db`` and
     ``clutter_density``: overrides of the scenario (:class:`TbdRadarParameters`).
+
+    Examples
+    --------
+    >>> from trackcore.experiments.tbd_tracking import TbdTrackingConfig
+    >>> cfg = TbdTrackingConfig(("A", "B", "C600"), processing_radius=1000.0)
+    >>> cfg.trackers, cfg.nees_scans
+    (('A', 'B', 'C600'), 0)
     """
 
     trackers: tuple
@@ -116,7 +123,15 @@ def _tracking_extract(out, config):
 class TbdCalibrationConfig(_Config):
     """Method A's pseudo-measurement errors with the window on the truth, over the first
     ``window`` scans, at ``processing_radius`` (m), with the scenario overrides
-    ``snr0_db`` and ``clutter_density``."""
+    ``snr0_db`` and ``clutter_density``.
+
+    Examples
+    --------
+    >>> from trackcore.experiments.tbd_tracking import TbdCalibrationConfig
+    >>> cfg = TbdCalibrationConfig(processing_radius=1000.0)
+    >>> cfg.window, cfg.snr0_db, cfg.clutter_density
+    (100, 3.0, 2.82)
+    """
 
     processing_radius: float = 2500.0
     window: int = 100

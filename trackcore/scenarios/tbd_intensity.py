@@ -70,6 +70,15 @@ def simulate_intensity_maps(positions, snr, grid=IntensityGrid(), rng=None):
     Random draws, in order: the noise key of the map's noise cells, then per scan the
     target phase, then the 27 complex noise samples of every scan's footprint.  Returns
     :class:`~trackcore.trackers.IntensityMaps`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import simulate_intensity_maps
+    >>> pos = np.tile([30000.0, 0.0, 1000.0], (5, 1))
+    >>> maps = simulate_intensity_maps(pos, np.full(5, 4.0), rng=np.random.default_rng(0))
+    >>> maps.footprint_power.shape, bool(np.all(maps.footprint_power >= 0))
+    ((5, 27), True)
     """
     if not isinstance(grid, IntensityGrid):
         raise TypeError(f"grid must be an IntensityGrid, got {type(grid).__name__}")
@@ -99,7 +108,20 @@ def simulate_intensity_maps(positions, snr, grid=IntensityGrid(), rng=None):
 
 @dataclass(frozen=True)
 class IntensityTrialResult:
-    """One Monte Carlo run of the one-sensor comparison on the chapter's scenario."""
+    """One Monte Carlo run of the one-sensor comparison on the chapter's scenario.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import TbdRadarParameters, tbd_intensity_trial
+    >>> from trackcore.trackers import IntensityTbdConfig, intensity_tracker_config
+    >>> prm = TbdRadarParameters(n_scans=10)
+    >>> cfgs = {"I": IntensityTbdConfig(n_particles=100),
+    ...     "C": intensity_tracker_config("C", n_particles=100)}
+    >>> res = tbd_intensity_trial(np.random.default_rng(4), cfgs, prm)
+    >>> type(res).__name__, res.maps is None, res.x0.shape
+    ('IntensityTrialResult', True, (6,))
+    """
     errors: dict           # name -> (K,) E_err(k) (eq 20)
     nees: dict             # name -> (K,) NEES of the 6-D state (with nees=True)
     n_processed: dict      # name -> (K,) detections in the window (NaN for the intensity PF)
@@ -126,6 +148,18 @@ def tbd_intensity_trial(rng, configs, params=TbdRadarParameters(), truth=None,
     (intensity filter, or the method letter), shared by configurations of the same kind.
     ``nees=True`` also computes every filter's NEES (their weighted covariances cost about
     a sixth of the run time).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import TbdRadarParameters, tbd_intensity_trial
+    >>> from trackcore.trackers import IntensityTbdConfig, intensity_tracker_config
+    >>> prm = TbdRadarParameters(n_scans=10)
+    >>> cfgs = {"I": IntensityTbdConfig(n_particles=100),
+    ...     "C": intensity_tracker_config("C", n_particles=100)}
+    >>> res = tbd_intensity_trial(np.random.default_rng(4), cfgs, prm)
+    >>> sorted(res.errors), res.errors['I'].shape, res.target_snr.shape
+    (['C', 'I'], (10,), (10,))
     """
     rng = as_rng(rng)
     if not isinstance(configs, dict) or not configs:

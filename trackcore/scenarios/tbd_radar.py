@@ -77,7 +77,17 @@ _FLUCTUATIONS = ("lognormal", "swerling1", "none")
 class TbdRadarParameters:
     """Scenario parameters (all are the book's choices except the Table 2 entries: L band,
     N = 100 pulses, 35 dBi, 10 dB, RCS offsets).  Every field is checked when the record
-    is built."""
+    is built.
+
+    Examples
+    --------
+    >>> from trackcore.scenarios import TbdRadarParameters
+    >>> prm = TbdRadarParameters(processing_radius=1000.0)
+    >>> prm.n_scans, prm.threshold_db, round(prm.threshold, 3)
+    (250, 5.0, 3.162)
+    >>> print(round(prm.wavelength, 4))
+    0.2306
+    """
     scan_period: float = 1.0
     n_scans: int = 250
     integration_step: float = 0.01
@@ -139,7 +149,17 @@ class TbdRadarParameters:
 
 @dataclass(frozen=True)
 class TbdRadarTruth:
-    """The target's truth and mean SNR per scan."""
+    """The target's truth and mean SNR per scan.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import TbdRadarParameters, simulate_tbd_radar, tbd_radar_truth
+    >>> prm = TbdRadarParameters(n_scans=20, processing_radius=1000.0)
+    >>> truth = tbd_radar_truth(prm)
+    >>> type(truth).__name__, truth.times[:3]
+    ('TbdRadarTruth', array([0., 1., 2.]))
+    """
     times: np.ndarray      # (K,) s
     states: np.ndarray     # (K, 6) [x, y, z, vx, vy, vz]
     phase: np.ndarray      # (K,) 1 approach, 2 descent, 3 turn, 4 exit
@@ -154,6 +174,17 @@ class TbdRadarScans:
 
     Scan ``k`` owns rows ``offsets[k]:offsets[k+1]``.  ``target_snr``/``target_zeta`` hold
     the realised target SNR and detection statistic of every scan (detected or not).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import TbdRadarParameters, simulate_tbd_radar, tbd_radar_truth
+    >>> prm = TbdRadarParameters(n_scans=20, processing_radius=1000.0)
+    >>> truth = tbd_radar_truth(prm)
+    >>> scans = simulate_tbd_radar(truth, prm, np.random.default_rng(1))
+    >>> pos, rr, snr, is_target = scans.scan(0)
+    >>> pos.shape[1], bool(np.all(snr >= prm.threshold)), scans.scan_index.size == scans.snr.size
+    (3, True, True)
     """
     positions: np.ndarray    # (M, 3) Cartesian, m
     range_rate: np.ndarray   # (M,) m/s
@@ -225,6 +256,15 @@ def radar_equation_snr(rcs_m2, range_m, pt_tau, params=TbdRadarParameters()):
 
     ``rcs_m2`` (m², >= 0) and ``range_m`` (m, > 0) broadcast together; ``pt_tau`` (J, > 0)
     is the transmitted energy per pulse.
+
+    Examples
+    --------
+    >>> from trackcore.scenarios import radar_equation_snr
+    >>> s1 = radar_equation_snr(0.01, 50000.0, 1e-3)
+    >>> s2 = radar_equation_snr(0.01, 25000.0, 1e-3)
+    >>> import numpy as np
+    >>> np.round(s2 / s1, 1)  # R^-4: half the range, 16 times the SNR
+    array([16.])
     """
     if not isinstance(params, TbdRadarParameters):
         raise TypeError(f"params must be TbdRadarParameters, got {type(params).__name__}")
@@ -255,7 +295,19 @@ def radar_equation_snr(rcs_m2, range_m, pt_tau, params=TbdRadarParameters()):
 
 def tbd_radar_truth(params=TbdRadarParameters()):
     """Truth trajectory, phases, aspect-dependent RCS and mean SNR of the chapter's
-    scenario (its Figs 2 and 3)."""
+    scenario (its Figs 2 and 3).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import TbdRadarParameters, simulate_tbd_radar, tbd_radar_truth
+    >>> prm = TbdRadarParameters(n_scans=20, processing_radius=1000.0)
+    >>> truth = tbd_radar_truth(prm)
+    >>> truth.states.shape, truth.phase[:3]
+    ((20, 6), array([1, 1, 1]))
+    >>> print(round(10 * np.log10(truth.mean_snr[0]), 2))  # snr0_db
+    3.0
+    """
     if not isinstance(params, TbdRadarParameters):
         raise TypeError(f"params must be TbdRadarParameters, got {type(params).__name__}")
     K = int(params.n_scans)
@@ -284,6 +336,17 @@ def sample_clutter(centers, radius, threshold, density_per_km3, doppler_max, rng
     Per sphere a Poisson number with mean ``density · e^{-threshold} · V``, positions
     uniform in the ball, ``ζ = threshold + Exp(1)``, Doppler ``U(-doppler_max, doppler_max)``.
     Returns ``(positions (M, 3), range_rate (M,), zeta (M,), counts (K,))`` in sphere order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import sample_clutter
+    >>> pos, rr, zeta, counts = sample_clutter(np.zeros((2, 3)), 1000.0, 3.16, 2.82, 300.0,
+    ...     np.random.default_rng(0))
+    >>> counts.shape, int(counts.sum()) == len(zeta), bool(np.all(zeta >= 3.16))
+    ((2,), True, True)
+    >>> bool(np.all(np.linalg.norm(pos, axis=1) <= 1000.0))
+    True
     """
     rng = as_rng(rng)
     C = _bounded(as_array(centers, "centers", ndim=2), "centers")
@@ -322,6 +385,16 @@ def simulate_tbd_radar(truth, params=TbdRadarParameters(), rng=None):
     scan, its measurement noise, then the clutter.  The same ``rng`` state therefore gives
     the same target realisation for any clutter setting.  Detections of a scan are
     stored target first (if detected), then false alarms.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import TbdRadarParameters, simulate_tbd_radar, tbd_radar_truth
+    >>> prm = TbdRadarParameters(n_scans=20, processing_radius=1000.0)
+    >>> truth = tbd_radar_truth(prm)
+    >>> scans = simulate_tbd_radar(truth, prm, np.random.default_rng(1))
+    >>> scans.n_scans, scans.positions.shape[1], bool(scans.is_target.sum() <= 20)
+    (20, 3, True)
     """
     if not isinstance(truth, TbdRadarTruth):
         raise TypeError(f"truth must be TbdRadarTruth, got {type(truth).__name__}")
@@ -376,7 +449,20 @@ def simulate_tbd_radar(truth, params=TbdRadarParameters(), rng=None):
 
 def select_threshold(scans, threshold_db):
     """The detections of ``scans`` with ``ζ >= 10^(threshold_db/10)`` (a higher threshold
-    than the one simulated gives exactly the detections that threshold would have)."""
+    than the one simulated gives exactly the detections that threshold would have).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import TbdRadarParameters, simulate_tbd_radar, tbd_radar_truth
+    >>> prm = TbdRadarParameters(n_scans=20, processing_radius=1000.0)
+    >>> truth = tbd_radar_truth(prm)
+    >>> from trackcore.scenarios import select_threshold
+    >>> scans = simulate_tbd_radar(truth, prm, np.random.default_rng(1))
+    >>> high = select_threshold(scans, 7.0)
+    >>> bool(np.all(high.snr >= 10 ** 0.7)), high.snr.size < scans.snr.size
+    (True, True)
+    """
     if not isinstance(scans, TbdRadarScans):
         raise TypeError(f"scans must be TbdRadarScans, got {type(scans).__name__}")
     thr = float(threshold_db)
@@ -401,7 +487,19 @@ def select_threshold(scans, threshold_db):
 # ----------------------------------------------------------------------------- paired Monte Carlo run
 @dataclass(frozen=True)
 class TbdTrialResult:
-    """One paired Monte Carlo run: every tracker on the same detections and start."""
+    """One paired Monte Carlo run: every tracker on the same detections and start.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import TbdRadarParameters, tbd_paired_trial
+    >>> from trackcore.trackers import TbdTrackerConfig
+    >>> prm = TbdRadarParameters(n_scans=20, processing_radius=1000.0)
+    >>> cfgs = {"C": TbdTrackerConfig(n_particles=100, processing_radius=1000.0)}
+    >>> res = tbd_paired_trial(np.random.default_rng(3), cfgs, prm, keep=True)
+    >>> type(res).__name__, res.scans.n_scans, sorted(res.tracks)
+    ('TbdTrialResult', 20, ['C'])
+    """
     errors: dict        # name -> (K,) E_err(k) (eq 20)
     n_processed: dict   # name -> (K,) detections inside the processing sphere
     nees: dict          # name -> (K,) NEES of the 6-D state (trackcore.trackers.tbd_nees),
@@ -423,6 +521,18 @@ def tbd_paired_trial(rng, configs, params=TbdRadarParameters(), truth=None,
     ``tbd_radar_truth(params)``.  ``keep=True`` also returns the scans and full tracks.
     ``nees_methods``: the method letters whose NEES is computed (the particle filters'
     weighted covariance costs about a sixth of their run time; the EKF's is free).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import TbdRadarParameters, tbd_paired_trial
+    >>> from trackcore.trackers import TbdTrackerConfig
+    >>> prm = TbdRadarParameters(n_scans=20, processing_radius=1000.0)
+    >>> cfgs = {m: TbdTrackerConfig(method=m, n_particles=100, processing_radius=1000.0)
+    ...     for m in "BC"}
+    >>> res = tbd_paired_trial(np.random.default_rng(3), cfgs, prm)
+    >>> sorted(res.errors), res.errors['C'].shape, res.x0.shape
+    (['B', 'C'], (20,), (6,))
     """
     if not isinstance(keep, (bool, np.bool_)):
         raise TypeError(f"keep must be True or False, got {keep!r}")

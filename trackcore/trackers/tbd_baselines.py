@@ -160,7 +160,23 @@ def run_tbd_gated_b(scans, x0, P0, rng, config=TbdTrackerConfig(method="B")):
     """Method B with method A's gate (``config.gate`` on the NIS of ``p̄``, covariance
     ``P_pos + σ_p² I`` with A's ``σ_p`` = ``config.pseudo_sigmas[0]``); ``config`` is a
     method-``"B"`` :class:`~trackcore.trackers.TbdTrackerConfig` with the chapter's
-    default options.  ``gate = math.inf`` gives :func:`run_tbd_tracker`'s method B."""
+    default options.  ``gate = math.inf`` gives :func:`run_tbd_tracker`'s method B.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import TbdRadarParameters, simulate_tbd_radar, tbd_radar_truth
+    >>> from trackcore.scenarios.tbd_radar import TBD_INITIAL_COVARIANCE as P0
+    >>> from trackcore.trackers import TbdTrackerConfig, tbd_position_errors
+    >>> prm = TbdRadarParameters(n_scans=20, processing_radius=1000.0)
+    >>> truth = tbd_radar_truth(prm)
+    >>> scans = simulate_tbd_radar(truth, prm, np.random.default_rng(1))
+    >>> from trackcore.trackers.tbd_baselines import run_tbd_gated_b
+    >>> cfg = TbdTrackerConfig(method="B", n_particles=200, processing_radius=1000.0)
+    >>> res = run_tbd_gated_b(scans, truth.states[0], P0, np.random.default_rng(2), cfg)
+    >>> res.estimates.shape, int(res.accepted.sum()) <= 20
+    ((20, 6), True)
+    """
     _check(config, "B")
     rng = as_rng(rng)
     sig_p = config.pseudo_sigmas[0]
@@ -253,7 +269,24 @@ def run_tbd_snr_ekf(scans, x0, P0, config=TbdTrackerConfig(method="A"), *,
     """Method A with the SNR-dependent covariance ``σ_p,k = max(floor, σ_p sqrt(threshold
     / ζ̄_k))`` (module docstring); ``threshold``: the detection threshold ``τ`` (linear,
     the scenario's 5 dB by default), ``floor`` (m).  Returns the track and, as its
-    ``ess`` field, ``σ_p,k`` per scan (NaN: no update)."""
+    ``ess`` field, ``σ_p,k`` per scan (NaN: no update).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import TbdRadarParameters, simulate_tbd_radar, tbd_radar_truth
+    >>> from trackcore.scenarios.tbd_radar import TBD_INITIAL_COVARIANCE as P0
+    >>> from trackcore.trackers import TbdTrackerConfig, tbd_position_errors
+    >>> prm = TbdRadarParameters(n_scans=20, processing_radius=1000.0)
+    >>> truth = tbd_radar_truth(prm)
+    >>> scans = simulate_tbd_radar(truth, prm, np.random.default_rng(1))
+    >>> from trackcore.trackers.tbd_baselines import run_tbd_snr_ekf
+    >>> cfg = TbdTrackerConfig(method="A", processing_radius=1000.0)
+    >>> res = run_tbd_snr_ekf(scans, truth.states[0], P0, cfg)
+    >>> sig = res.ess[np.isfinite(res.ess)]  # sigma_p,k of the scans with an update
+    >>> bool(np.all(sig >= 25.0)), res.estimates.shape
+    (True, (20, 6))
+    """
     _check(config, "A")
     tau = as_positive(threshold, "threshold")
     floor = as_positive(floor, "floor")
@@ -373,7 +406,24 @@ def run_tbd_imm(scans, x0, P0, config=TbdTrackerConfig(method="A"), *,
     probabilities (default: the chain's stationary distribution).  ``config``: a
     method-``"A"`` config (its ``pseudo_sigma``, ``gate``, window and weights; its own
     ``sigma_a`` is not used).  Returns the track (combined estimate and covariance) and,
-    as its ``ess`` field, the first model's probability per scan."""
+    as its ``ess`` field, the first model's probability per scan.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import TbdRadarParameters, simulate_tbd_radar, tbd_radar_truth
+    >>> from trackcore.scenarios.tbd_radar import TBD_INITIAL_COVARIANCE as P0
+    >>> from trackcore.trackers import TbdTrackerConfig, tbd_position_errors
+    >>> prm = TbdRadarParameters(n_scans=20, processing_radius=1000.0)
+    >>> truth = tbd_radar_truth(prm)
+    >>> scans = simulate_tbd_radar(truth, prm, np.random.default_rng(1))
+    >>> from trackcore.trackers.tbd_baselines import run_tbd_imm
+    >>> cfg = TbdTrackerConfig(method="A", processing_radius=1000.0)
+    >>> res = run_tbd_imm(scans, truth.states[0], P0, cfg, sigma_a=(3.0, 30.0),
+    ...     transition=((0.99, 0.01), (0.1, 0.9)))
+    >>> res.estimates.shape, res.covariances.shape
+    ((20, 6), (20, 6, 6))
+    """
     _check(config, "A")
     sig = as_array(sigma_a, "sigma_a", ndim=1)
     M = sig.size

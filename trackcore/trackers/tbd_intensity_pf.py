@@ -104,6 +104,14 @@ class IntensityGrid:
     ``σ_az = σ_el = 0.15°``.  ``half_range`` / ``half_angle``: the default half-size, in
     cells either side of the target's cell, of a block materialised with
     :meth:`IntensityMaps.block` (for figures; the map itself is unbounded).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers import IntensityGrid
+    >>> g = IntensityGrid()
+    >>> print(g.range_cell, round(float(np.degrees(g.angle_cell)), 2), g.psf_width)
+    75.0 0.5 0.5
     """
     range_cell: float = 75.0
     angle_cell: float = math.radians(0.5)
@@ -192,6 +200,15 @@ class IntensityMaps:
     ``k`` and ``footprint_power[k]`` the powers of the 27 cells around it (ordered by
     range, azimuth, elevation offsets -1, 0, 1, elevation fastest); every other cell's
     power is the noise of ``noise_key`` (see the module docstring).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import simulate_intensity_maps
+    >>> pos = np.tile([30000.0, 0.0, 1000.0], (5, 1))  # a target at rest, 5 scans
+    >>> maps = simulate_intensity_maps(pos, np.full(5, 4.0), rng=np.random.default_rng(0))
+    >>> type(maps).__name__, maps.footprint_centre.shape, maps.footprint_power.shape
+    ('IntensityMaps', (5, 3), (5, 27))
     """
     footprint_centre: np.ndarray  # (K, 3) int64
     footprint_power: np.ndarray   # (K, 27) float64
@@ -348,7 +365,16 @@ def _as_maps(maps):
 
 def intensity_psf(position, grid=IntensityGrid()):
     """Footprint of a target at Cartesian ``position`` (3,) (radar at the origin):
-    ``(cells (27, 3) int64, h (27,))`` -- the integer cell indices and the amplitude PSF."""
+    ``(cells (27, 3) int64, h (27,))`` -- the integer cell indices and the amplitude PSF.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers import intensity_psf
+    >>> cells, h = intensity_psf(np.array([30000.0, 0.0, 1000.0]))
+    >>> cells.shape, round(float(h.max()), 3)
+    ((27, 3), 0.921)
+    """
     grid = _as_grid(grid)
     p = _bounded(as_vector(position, "position", 3), "position")
     r = float(np.linalg.norm(p))
@@ -373,7 +399,23 @@ def _as_particles(particles):
 def intensity_log_likelihood_ratio(particles, maps, k, snr):
     """Log likelihood ratio (target present at the particle vs noise only) of the map of
     scan ``k``, for particles ``(N, >=3)`` (positions first): ``(N,)``.  ``snr``: the
-    filter's design SNR (linear, >= 0)."""
+    filter's design SNR (linear, >= 0).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import simulate_intensity_maps
+    >>> pos = np.tile([30000.0, 0.0, 1000.0], (5, 1))  # a target at rest, 5 scans
+    >>> maps = simulate_intensity_maps(pos, np.full(5, 4.0), rng=np.random.default_rng(0))
+    >>> from trackcore.trackers import intensity_log_likelihood_ratio
+    >>> particles = np.zeros((3, 6))
+    >>> particles[:, :3] = pos[0]
+    >>> particles[1, 0] += 500.0
+    >>> particles[2, 0] += 2000.0
+    >>> llr = intensity_log_likelihood_ratio(particles, maps, 0, 4.0)
+    >>> bool(llr[0] > llr[1]), bool(llr[0] > llr[2])  # the particle on the target wins
+    (True, True)
+    """
     maps = _as_maps(maps)
     X = _as_particles(particles)
     k = maps._scan(k)
@@ -400,7 +442,14 @@ def _db_power(value, name):
 def intensity_false_alarm_probability(threshold_db):
     """Probability that a noise cell becomes a detection: its power reaches
     ``τ = 10^(threshold_db/10)`` and is the largest of its 27-cell neighbourhood,
-    ``(1 - (1 - e^{-τ})^27) / 27``."""
+    ``(1 - (1 - e^{-τ})^27) / 27``.
+
+    Examples
+    --------
+    >>> from trackcore.trackers import intensity_false_alarm_probability
+    >>> print(round(float(intensity_false_alarm_probability(5.0)), 4))
+    0.0255
+    """
     tau = _db_power(threshold_db, "threshold_db")
     return float(-np.expm1(27.0 * np.log1p(-math.exp(-tau))) / 27.0)
 
@@ -489,7 +538,19 @@ def _extract_kernel(key, k, c0, fp, centre, R, tau, dr, dth, max_cells):
 def intensity_detections(maps, k, centre, radius, threshold_db):
     """The detections of scan ``k`` within ``radius`` (m) of ``centre`` (3,):
     ``(positions (m, 3), snr (m,))`` -- local maxima of the map at or above
-    ``threshold_db``, placed at their cell centres, with the cell power as measured SNR."""
+    ``threshold_db``, placed at their cell centres, with the cell power as measured SNR.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import simulate_intensity_maps
+    >>> pos = np.tile([30000.0, 0.0, 1000.0], (5, 1))  # a target at rest, 5 scans
+    >>> maps = simulate_intensity_maps(pos, np.full(5, 4.0), rng=np.random.default_rng(0))
+    >>> from trackcore.trackers import intensity_detections
+    >>> p, snr = intensity_detections(maps, 0, pos[0], 1000.0, 5.0)
+    >>> p.shape[1], bool(np.all(snr >= 10 ** 0.5))
+    (3, True)
+    """
     maps = _as_maps(maps)
     k = maps._scan(k)
     c = _bounded(as_vector(centre, "centre", 3), "centre")
@@ -512,7 +573,15 @@ def intensity_tracker_config(method="C", grid=IntensityGrid(), threshold_db=5.0,
     map: no Doppler (``sigma_v = sigma_range_rate = inf``), method P's measurement noise
     that of a detection placed at its cell's centre (``Δr/√12``, ``Δθ/√12``) and its
     false-alarm density ``p_fa / (Δr Δθ²)`` per unit of (range, azimuth, elevation),
-    with ``p_fa`` from :func:`intensity_false_alarm_probability`.  ``kwargs`` override."""
+    with ``p_fa`` from :func:`intensity_false_alarm_probability`.  ``kwargs`` override.
+
+    Examples
+    --------
+    >>> from trackcore.trackers import intensity_tracker_config
+    >>> cfg = intensity_tracker_config("C", n_particles=100)
+    >>> cfg.method, cfg.n_particles, cfg.sigma_v, cfg.use_doppler
+    ('C', 100, inf, False)
+    """
     grid = _as_grid(grid)
     thr = as_scalar(threshold_db, "threshold_db")
     base = dict(method=method, sigma_v=math.inf, sigma_range_rate=math.inf,
@@ -532,6 +601,14 @@ class IntensityTbdConfig:
     ``design_snr``: the linear SNR of the likelihood ratio (default 6 dB, as method P);
     ``sigma_a``: DWNA acceleration std (m/s²); ``resample_threshold``: resample when
     ``N_eff < resample_threshold · N``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers import IntensityTbdConfig
+    >>> cfg = IntensityTbdConfig(n_particles=100)
+    >>> print(cfg.n_particles, round(float(10 * np.log10(cfg.design_snr)), 1), cfg.sigma_a)
+    100 6.0 15.0
     """
     n_particles: int = 600
     design_snr: float = 10.0 ** 0.6
@@ -549,7 +626,22 @@ class IntensityTbdConfig:
 
 @dataclass(frozen=True)
 class IntensityTrackResult:
-    """Output of :func:`run_intensity_tbd` over ``K`` scans."""
+    """Output of :func:`run_intensity_tbd` over ``K`` scans.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import simulate_intensity_maps
+    >>> pos = np.tile([30000.0, 0.0, 1000.0], (5, 1))  # a target at rest, 5 scans
+    >>> maps = simulate_intensity_maps(pos, np.full(5, 4.0), rng=np.random.default_rng(0))
+    >>> P0 = np.diag([300.0**2] * 3 + [20.0**2] * 3)
+    >>> x0 = np.r_[pos[0], 0.0, 0.0, 0.0]
+    >>> from trackcore.trackers import IntensityTbdConfig, run_intensity_tbd
+    >>> res = run_intensity_tbd(maps, x0, P0, np.random.default_rng(1),
+    ...     IntensityTbdConfig(n_particles=100), covariances=False)
+    >>> type(res).__name__, res.covariances is None, res.ess.shape
+    ('IntensityTrackResult', True, (5,))
+    """
     estimates: np.ndarray    # (K, 6) weighted-mean posterior estimates
     covariances: np.ndarray  # (K, 6, 6) weighted particle covariance
     ess: np.ndarray          # (K,) N_eff after the update
@@ -590,6 +682,20 @@ def run_intensity_tbd(maps, x0, P0, rng, config=IntensityTbdConfig(), *, covaria
     estimate and covariance at scan 0 (particles drawn from ``N(x0, P0)`` with ``rng``);
     scan 0 is processed without a prediction.  ``covariances=False`` skips the weighted
     covariance (``covariances`` is then None).  Returns :class:`IntensityTrackResult`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import simulate_intensity_maps
+    >>> pos = np.tile([30000.0, 0.0, 1000.0], (5, 1))  # a target at rest, 5 scans
+    >>> maps = simulate_intensity_maps(pos, np.full(5, 4.0), rng=np.random.default_rng(0))
+    >>> P0 = np.diag([300.0**2] * 3 + [20.0**2] * 3)
+    >>> x0 = np.r_[pos[0], 0.0, 0.0, 0.0]
+    >>> from trackcore.trackers import IntensityTbdConfig, run_intensity_tbd
+    >>> res = run_intensity_tbd(maps, x0, P0, np.random.default_rng(1),
+    ...     IntensityTbdConfig(n_particles=100))
+    >>> res.estimates.shape, res.covariances.shape
+    ((5, 6), (5, 6, 6))
     """
     if not isinstance(config, IntensityTbdConfig):
         raise TypeError(f"config must be an IntensityTbdConfig, got {type(config).__name__}")
@@ -617,7 +723,23 @@ def run_intensity_tbd(maps, x0, P0, rng, config=IntensityTbdConfig(), *, covaria
 
 @dataclass(frozen=True)
 class MapTrackResult:
-    """Output of :func:`run_tbd_tracker_on_map` over ``K`` scans."""
+    """Output of :func:`run_tbd_tracker_on_map` over ``K`` scans.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import simulate_intensity_maps
+    >>> pos = np.tile([30000.0, 0.0, 1000.0], (5, 1))  # a target at rest, 5 scans
+    >>> maps = simulate_intensity_maps(pos, np.full(5, 4.0), rng=np.random.default_rng(0))
+    >>> P0 = np.diag([300.0**2] * 3 + [20.0**2] * 3)
+    >>> x0 = np.r_[pos[0], 0.0, 0.0, 0.0]
+    >>> from trackcore.trackers import intensity_tracker_config, run_tbd_tracker_on_map
+    >>> cfg = intensity_tracker_config("C", n_particles=100)
+    >>> res = run_tbd_tracker_on_map(maps, x0, P0, np.random.default_rng(1), cfg,
+    ...     covariances=False)
+    >>> type(res).__name__, res.covariances is None
+    ('MapTrackResult', True)
+    """
     estimates: np.ndarray       # (K, 6)
     covariances: np.ndarray     # (K, 6, 6) weighted particle covariance
     window_centers: np.ndarray  # (K, 3) predicted position: centre of the processing sphere
@@ -680,6 +802,20 @@ def run_tbd_tracker_on_map(maps, x0, P0, rng, config, *, covariances=True):
     math.inf`` and ``use_doppler = False`` (build it with :func:`intensity_tracker_config`).
     ``covariances=False`` skips the weighted covariance (``covariances`` is then None).
     Returns :class:`MapTrackResult`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import simulate_intensity_maps
+    >>> pos = np.tile([30000.0, 0.0, 1000.0], (5, 1))  # a target at rest, 5 scans
+    >>> maps = simulate_intensity_maps(pos, np.full(5, 4.0), rng=np.random.default_rng(0))
+    >>> P0 = np.diag([300.0**2] * 3 + [20.0**2] * 3)
+    >>> x0 = np.r_[pos[0], 0.0, 0.0, 0.0]
+    >>> from trackcore.trackers import intensity_tracker_config, run_tbd_tracker_on_map
+    >>> cfg = intensity_tracker_config("C", n_particles=100)
+    >>> res = run_tbd_tracker_on_map(maps, x0, P0, np.random.default_rng(1), cfg)
+    >>> res.estimates.shape, res.n_processed.shape
+    ((5, 6), (5,))
     """
     if not isinstance(covariances, (bool, np.bool_)):
         raise TypeError(f"covariances must be a bool, got {type(covariances).__name__}")

@@ -185,6 +185,14 @@ def range_azimuth_elevation(x):
 
     Azimuth ``atan2(y, x)`` (counter-clockwise from +x), elevation ``asin(z / r)``.
     ``x`` is ``(n,)`` or ``(N, n)`` with ``n >= 3``; returns ``(3,)`` or ``(N, 3)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers import range_azimuth_elevation
+    >>> r, az, el = range_azimuth_elevation(np.array([3000.0, 4000.0, 0.0]))
+    >>> print(round(float(r), 1), round(float(np.degrees(az)), 2), float(el))
+    5000.0 53.13 0.0
     """
     X, single = _states(x, "x", 3)
     r = np.linalg.norm(X[:, :3], axis=1)
@@ -195,7 +203,18 @@ def range_azimuth_elevation(x):
 
 
 def range_azimuth_elevation_jacobian(x, with_doppler=False):
-    """Jacobian ``(3, 6)`` (``(4, 6)`` with the range rate) at one state ``x`` (6,)."""
+    """Jacobian ``(3, 6)`` (``(4, 6)`` with the range rate) at one state ``x`` (6,).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers import range_azimuth_elevation_jacobian
+    >>> H = range_azimuth_elevation_jacobian(np.array([3000.0, 4000.0, 0.0, -200.0, 0.0, 0.0]))
+    >>> H.shape, H[0, :3].round(2)
+    ((3, 6), array([0.6, 0.8, 0. ]))
+    >>> range_azimuth_elevation_jacobian(np.ones(6), with_doppler=True).shape
+    (4, 6)
+    """
     x = _bounded(as_vector(x, "x", 6), "x")
     if not np.hypot(x[0], x[1]) >= 1e-100:
         raise ValueError("x must not lie on (or within 1e-100 m of) the z axis (azimuth "
@@ -206,7 +225,15 @@ def range_azimuth_elevation_jacobian(x, with_doppler=False):
 
 
 def spherical_to_cartesian(z):
-    """Positions ``(N, 3)`` (or ``(3,)``) from ``(r, azimuth, elevation)`` rows."""
+    """Positions ``(N, 3)`` (or ``(3,)``) from ``(r, azimuth, elevation)`` rows.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers import spherical_to_cartesian
+    >>> spherical_to_cartesian(np.array([5000.0, np.arctan2(4.0, 3.0), 0.0])).round(1)
+    array([3000., 4000.,    0.])
+    """
     Z, single = _states(z, "z", 3)
     r, az, el = Z[:, 0], Z[:, 1], Z[:, 2]
     ce = np.cos(el)
@@ -216,7 +243,15 @@ def spherical_to_cartesian(z):
 
 def radial_velocity(x):
     """Radial velocity ``p·v / ||p||`` of states ``[x, y, z, vx, vy, vz]`` (radar at the
-    origin)."""
+    origin).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers import radial_velocity
+    >>> print(round(float(radial_velocity(np.array([3000.0, 4000.0, 0.0, -200.0, 0.0, 0.0]))), 1))
+    -120.0
+    """
     X, single = _states(x, "x", 6)
     r = np.linalg.norm(X[:, :3], axis=1)
     safe = np.where(r > 0, r, 1.0)
@@ -233,6 +268,12 @@ def detection_snr_cap(pfa):
     of 0 for every ``ζ >= ζ_cap``.  The trackers evaluate eq (9) at ``min(ζ, ζ_cap)``,
     which changes no weight by more than that and keeps the cost of the Marcum
     function bounded for any finite ``ζ``.
+
+    Examples
+    --------
+    >>> from trackcore.trackers import detection_snr_cap
+    >>> print(round(float(detection_snr_cap(1e-6)), 1))
+    116.4
     """
     pfa = as_probability(pfa, "pfa", open_low=True, open_high=True)
     return 0.5 * (math.sqrt(-2.0 * math.log(pfa)) + 10.0) ** 2
@@ -746,6 +787,15 @@ class TbdTrackerConfig:
     > 0, a false-alarm density that is constant in (range, azimuth, elevation) space,
     per m rad² (for a sensor with fixed range and angle cells); it replaces
     ``clutter_density``.
+
+    Examples
+    --------
+    >>> from trackcore.trackers import TbdTrackerConfig
+    >>> cfg = TbdTrackerConfig(method="A", processing_radius=1000.0)
+    >>> cfg.method, cfg.n_particles, cfg.sigma_r, cfg.gate
+    ('A', 600, 150.0, 11.345)
+    >>> cfg.pseudo_sigmas
+    (194.0, 94.0)
     """
     method: str = "C"
     n_particles: int = 600
@@ -824,7 +874,24 @@ class TbdTrackerConfig:
 
 @dataclass(frozen=True)
 class TbdTrackResult:
-    """Output of :func:`run_tbd_tracker` over ``K`` scans with ``M`` detections in total."""
+    """Output of :func:`run_tbd_tracker` over ``K`` scans with ``M`` detections in total.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import TbdRadarParameters, simulate_tbd_radar, tbd_radar_truth
+    >>> from trackcore.scenarios.tbd_radar import TBD_INITIAL_COVARIANCE as P0
+    >>> prm = TbdRadarParameters(n_scans=20, processing_radius=1000.0)
+    >>> truth = tbd_radar_truth(prm)
+    >>> scans = simulate_tbd_radar(truth, prm, np.random.default_rng(1))
+    >>> from trackcore.trackers import TbdTrackerConfig, run_tbd_tracker
+    >>> cfg = TbdTrackerConfig(method="A", processing_radius=1000.0)
+    >>> res = run_tbd_tracker(scans, truth.states[0], P0, np.random.default_rng(2), cfg)
+    >>> type(res).__name__, res.covariances.shape
+    ('TbdTrackResult', (20, 6, 6))
+    >>> bool(np.isnan(res.ess).all()), res.processed.shape == scans.snr.shape
+    (True, True)
+    """
     estimates: np.ndarray   # (K, 6) posterior estimates [x, y, z, vx, vy, vz]
     covariances: np.ndarray  # (K, 6, 6) EKF covariance (A) or weighted particle covariance
     #                          (None for a particle filter run with covariances=False)
@@ -905,6 +972,22 @@ def run_tbd_tracker(scans, x0, P0, rng, config=TbdTrackerConfig(), *, covariance
     are evaluated when a detection is first processed and stored, so eq (9) is evaluated
     once per detection however many trackers see it (the results do not change).
     Returns :class:`TbdTrackResult`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import TbdRadarParameters, simulate_tbd_radar, tbd_radar_truth
+    >>> from trackcore.scenarios.tbd_radar import TBD_INITIAL_COVARIANCE as P0
+    >>> prm = TbdRadarParameters(n_scans=20, processing_radius=1000.0)
+    >>> truth = tbd_radar_truth(prm)
+    >>> scans = simulate_tbd_radar(truth, prm, np.random.default_rng(1))
+    >>> from trackcore.trackers import TbdTrackerConfig, run_tbd_tracker, tbd_position_errors
+    >>> cfg = TbdTrackerConfig(method="C", n_particles=200, processing_radius=1000.0)
+    >>> res = run_tbd_tracker(scans, truth.states[0], P0, np.random.default_rng(2), cfg)
+    >>> res.estimates.shape, res.n_processed.shape
+    ((20, 6), (20,))
+    >>> bool(tbd_position_errors(res.estimates, truth.states).max() < 1000.0)
+    True
     """
     if not isinstance(config, TbdTrackerConfig):
         raise TypeError(f"config must be a TbdTrackerConfig, got {type(config).__name__}")
@@ -1003,6 +1086,16 @@ def weighted_mean_detection(positions, range_rate, snr, p_ref, rr_ref, sigma_r, 
     ``p_ref`` (3,) and ``rr_ref`` the predicted position and radial velocity;
     ``sigma_v = math.inf`` drops the Doppler factor.  ``m = 0`` (or all weights zero)
     returns ``(None, None)``: there is no pseudo-measurement.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers import weighted_mean_detection
+    >>> pos = np.array([[1000.0, 0.0, 0.0], [1100.0, 0.0, 0.0]])
+    >>> pbar, rbar = weighted_mean_detection(pos, [-100.0, -100.0], [10.0, 10.0],
+    ...     [1050.0, 0.0, 0.0], -100.0, 150.0, 40.0, 1e-6)
+    >>> pbar.round(1), round(float(rbar), 1)
+    (array([1050.,    0.,    0.]), -100.0)
     """
     pos, rr, snr = _detections(positions, range_rate, snr)
     m = pos.shape[0]
@@ -1028,6 +1121,16 @@ def direct_particle_log_weights(particles, positions, range_rate, snr, sigma_r, 
 
     ``snr`` (m,) linear, finite and >= 0; ``sigma_v = math.inf`` drops the Doppler factor.
     ``m = 0`` returns zeros (no information: the weights stay as they were).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers import direct_particle_log_weights
+    >>> particles = np.array([[1000.0, 0, 0, 0, 0, 0], [1600.0, 0, 0, 0, 0, 0]])
+    >>> lw = direct_particle_log_weights(particles, [[1000.0, 0.0, 0.0]], [0.0], [10.0],
+    ...     150.0, 40.0, 1e-6)
+    >>> print(round(float(lw[0] - lw[1]), 3))  # 600 m / sigma_r = 4
+    4.0
     """
     X = _bounded(as_array(particles, "particles", ndim=2), "particles")
     if X.shape[1] != 6:
@@ -1055,6 +1158,21 @@ def pseudo_measurement_errors(scans, truth, config=TbdTrackerConfig(method="A"))
     a tracker that predicts perfectly would be fed.  Returns ``(dp (K, 3), dv (K,))``:
     ``p̄ - p_k`` and ``ṙ̄ - ṙ_k``, NaN where the window holds no detection.  Their root
     mean square calibrates :data:`TBD_PSEUDO_SIGMA` without running any tracker.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import TbdRadarParameters, simulate_tbd_radar, tbd_radar_truth
+    >>> from trackcore.scenarios.tbd_radar import TBD_INITIAL_COVARIANCE as P0
+    >>> prm = TbdRadarParameters(n_scans=20, processing_radius=1000.0)
+    >>> truth = tbd_radar_truth(prm)
+    >>> scans = simulate_tbd_radar(truth, prm, np.random.default_rng(1))
+    >>> from trackcore.trackers import pseudo_measurement_errors
+    >>> dp, dv = pseudo_measurement_errors(scans, truth.states)
+    >>> dp.shape, dv.shape
+    ((20, 3), (20,))
+    >>> bool(np.nanmax(np.linalg.norm(dp, axis=1)) <= 2500.0)
+    True
     """
     if not isinstance(config, TbdTrackerConfig):
         raise TypeError(f"config must be a TbdTrackerConfig, got {type(config).__name__}")
@@ -1101,7 +1219,17 @@ def _pseudo_errors_kernel(pos, rr, snr, log_pfa, snr_cap, offsets, truth, R, inv
 
 
 def tbd_position_errors(estimates, truth):
-    """Eq (20), corrected (erratum 9): ``E_err(k) = ||E_pos(k) - R_pos(k)||`` (K,)."""
+    """Eq (20), corrected (erratum 9): ``E_err(k) = ||E_pos(k) - R_pos(k)||`` (K,).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers import tbd_position_errors
+    >>> est = np.zeros((2, 6))
+    >>> truth = np.array([[3.0, 4.0, 0, 0, 0, 0], [0.0, 0.0, 12.0, 5.0, 0, 0]])
+    >>> tbd_position_errors(est, truth)
+    array([ 5., 12.])
+    """
     E = _bounded(as_array(estimates, "estimates", ndim=2), "estimates")
     Tr = _bounded(as_array(truth, "truth", ndim=2), "truth")
     if E.shape[0] != Tr.shape[0] or E.shape[1] < 3 or Tr.shape[1] < 3:
@@ -1112,7 +1240,16 @@ def tbd_position_errors(estimates, truth):
 
 def tbd_nees(estimates, covariances, truth):
     """Normalised estimation error squared ``e_kᵀ P_k⁻¹ e_k`` of every scan (K,), with
-    ``e_k`` the full 6-D state error; NaN where ``P_k`` is not positive definite."""
+    ``e_k`` the full 6-D state error; NaN where ``P_k`` is not positive definite.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers import tbd_nees
+    >>> est = np.ones((1, 6))
+    >>> tbd_nees(est, np.eye(6)[None] * 2.0, np.zeros((1, 6)))
+    array([3.])
+    """
     E = _bounded(as_array(estimates, "estimates", ndim=2), "estimates")
     C = _bounded(as_array(covariances, "covariances", ndim=3), "covariances", _COV_LIMIT)
     Tr = _bounded(as_array(truth, "truth", ndim=2), "truth")
@@ -1146,6 +1283,15 @@ def tbd_measurement_errors(positions, offsets, truth, mask=None):
     ``positions (M, 3)``, ``offsets (K+1,)`` as in :func:`run_tbd_tracker`, ``truth
     (K, >=3)``, ``mask (M,)`` booleans (default all).  NaN for a scan with no (masked)
     detection (the metric is undefined there).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers import tbd_measurement_errors
+    >>> pos = np.array([[3.0, 4.0, 0.0], [0.0, 0.0, 2.0], [6.0, 8.0, 0.0]])
+    >>> offsets = np.array([0, 2, 3])  # scan 0: rows 0-1, scan 1: row 2
+    >>> tbd_measurement_errors(pos, offsets, np.zeros((2, 6)))
+    array([ 3.5, 10. ])
     """
     pos = _bounded(as_array(positions, "positions", ndim=2), "positions")
     if pos.shape[1] != 3:
@@ -1173,7 +1319,16 @@ def tbd_measurement_errors(positions, offsets, truth, mask=None):
 
 def tbd_loss_onset(errors, threshold=1000.0, consecutive=10):
     """First scan of the first stretch of at least ``consecutive`` scans with
-    ``errors > threshold`` (the chapter's rule: 1 km for 10 scans), or -1 if none."""
+    ``errors > threshold`` (the chapter's rule: 1 km for 10 scans), or -1 if none.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers import tbd_loss_onset
+    >>> E = np.r_[np.full(5, 200.0), np.full(12, 1500.0), np.full(3, 200.0)]
+    >>> tbd_loss_onset(E), tbd_loss_onset(np.full(20, 200.0))
+    (5, -1)
+    """
     e = as_array(errors, "errors", ndim=1)
     threshold = as_positive(threshold, "threshold")
     consecutive = as_count(consecutive, "consecutive")
@@ -1191,12 +1346,30 @@ def tbd_loss_onset(errors, threshold=1000.0, consecutive=10):
 
 def tbd_track_lost(errors, threshold=1000.0, consecutive=10):
     """True if ``errors`` exceed ``threshold`` for at least ``consecutive`` scans in a row
-    (the chapter's rule: 1 km for 10 scans)."""
+    (the chapter's rule: 1 km for 10 scans).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers import tbd_track_lost
+    >>> E = np.r_[np.full(5, 200.0), np.full(10, 1500.0), np.full(5, 200.0)]
+    >>> tbd_track_lost(E), tbd_track_lost(E[:14])
+    (True, False)
+    """
     return tbd_loss_onset(errors, threshold, consecutive) >= 0
 
 
 class TbdRunOutcomes(NamedTuple):
-    """Per-run outcomes of :func:`tbd_run_outcomes` (boolean arrays, one entry per run)."""
+    """Per-run outcomes of :func:`tbd_run_outcomes` (boolean arrays, one entry per run).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers import tbd_run_outcomes
+    >>> out = tbd_run_outcomes(np.full((2, 20), 200.0))
+    >>> type(out).__name__, out._fields
+    ('TbdRunOutcomes', ('lost', 'transient', 'diverged', 'other'))
+    """
     lost: np.ndarray       # E_err > 1 km for >= 10 consecutive scans
     transient: np.ndarray  # lost, and back within 1 km for the last 10 scans
     diverged: np.ndarray   # lost, and the final error exceeds 5 km
@@ -1211,6 +1384,17 @@ def tbd_run_outcomes(errors, threshold=1000.0, consecutive=10, diverged_at=5000.
     are all within ``threshold`` (the track came back), *diverged* if its final error
     exceeds ``diverged_at`` (default 5 km), and *other* otherwise (still lost at the end,
     but closer than ``diverged_at``).  The three classes partition the lost runs.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers import tbd_run_outcomes
+    >>> E = np.full((3, 30), 200.0)
+    >>> E[1, 5:18] = 1500.0  # lost, then back
+    >>> E[2, 5:] = 8000.0   # diverged
+    >>> out = tbd_run_outcomes(E)
+    >>> out.lost, out.transient, out.diverged
+    (array([False,  True,  True]), array([False,  True, False]), array([False, False,  True]))
     """
     E = as_array(errors, "errors", ndim=2)
     if E.shape[0] == 0 or E.shape[1] == 0:
@@ -1229,7 +1413,16 @@ def tbd_run_outcomes(errors, threshold=1000.0, consecutive=10, diverged_at=5000.
 
 @dataclass(frozen=True)
 class TbdErrorSummary:
-    """Table 3 style summary of ``E_err`` over runs (errors averaged over a scan window)."""
+    """Table 3 style summary of ``E_err`` over runs (errors averaged over a scan window).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers import tbd_error_summary
+    >>> s = tbd_error_summary(np.full((2, 20), 150.0))
+    >>> type(s).__name__, s.mean, s.lost, s.beyond_sim
+    ('TbdErrorSummary', 150.0, 0, 0)
+    """
     mean: float            # mean over all runs of the per-run window mean (the paper's metric)
     median_run: float      # median over runs of the per-run window mean
     lost: int              # runs lost (E_err > 1 km for >= 10 consecutive scans, whole run)
@@ -1249,6 +1442,16 @@ def tbd_error_summary(errors, window=None, sim_margin=5000.0):
     split into ``transient``, ``diverged`` and ``other`` (:func:`tbd_run_outcomes`, over
     the whole run); ``mean_not_lost`` excludes them.  ``beyond_sim`` counts runs that left the
     sphere in which the clutter was simulated (their later errors are not representative).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers import tbd_error_summary
+    >>> E = np.full((3, 30), 100.0)
+    >>> E[2, 5:] = 8000.0
+    >>> s = tbd_error_summary(E, window=slice(0, 10))
+    >>> print(round(s.mean, 1), s.median_run, s.lost, s.diverged, s.mean_not_lost)
+    1416.7 100.0 1 1 100.0
     """
     E = as_array(errors, "errors", ndim=2)
     if E.shape[0] == 0 or E.shape[1] == 0:
