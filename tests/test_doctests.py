@@ -54,6 +54,15 @@ WITH_EXAMPLES = [
     "trackcore.experiments.fjpda_readings",
     "trackcore.experiments.fjpda_scenes",
     "trackcore.experiments.fjpda_templates",
+    "trackcore.trackers.tbd_pf",
+    "trackcore.trackers.tbd_intensity_pf",
+    "trackcore.trackers.tbd_baselines",
+    "trackcore.scenarios.tbd_radar",
+    "trackcore.scenarios.tbd_intensity",
+    "trackcore.scenarios._tbd_book",
+    "trackcore.experiments.tbd_tracking",
+    "trackcore.experiments.tbd_grid",
+    "trackcore.experiments.tbd_extensions",
 ]
 
 
