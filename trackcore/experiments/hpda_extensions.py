@@ -11,7 +11,12 @@ seeds of the chapter's Monte Carlo comparison (case ``c``: ``HPDA_SEED + c``), s
 * ``hpda-ext-factor-pd`` / ``-clutter``: case 1 with only ``P_D`` lowered or only
   the clutter raised (:class:`~trackcore.experiments.HpdaMonteCarloConfig`);
 * ``hpda-ext-snr-linear`` / ``-db``: case 2's HPDA-PF with SNR 5 read as linear and
-  as 5 dB (:class:`~trackcore.experiments.HpdaMonteCarloConfig`).
+  as 5 dB (:class:`~trackcore.experiments.HpdaMonteCarloConfig`);
+* ``hpda-ext-birth-case1/2``: SMC-PHD alone with a birth mass per return, at every
+  death prior (:class:`HpdaBirthSweepConfig`);
+* ``hpda-ext-birth-factor-pd`` / ``-clutter``: SMC-PHD alone in the one-factor
+  environments, both birth models at every death prior, the first 50 scans kept
+  (:class:`HpdaBirthSweepConfig`).
 
 A row holds the estimated count per scan (int16) of every tracker and variant and, in
 the prior sweep, SMC-PHD's sum of the particle weights per variant and scan (float32,
@@ -32,7 +37,7 @@ from ._checks import check_names
 from ._core import Experiment, register
 from .registry import HPDA_SEED, HpdaMonteCarloConfig
 
-__all__ = ["HpdaLadderConfig", "HpdaPriorSweepConfig"]
+__all__ = ["HpdaBirthSweepConfig", "HpdaLadderConfig", "HpdaPriorSweepConfig"]
 
 _NB = "book/000-hpda/07-extensions.ipynb"
 
@@ -108,6 +113,62 @@ class HpdaLadderConfig(HpdaMonteCarloConfig):
         return tuple({"clustering_literal": LADDER_READINGS[r]} for r in self.readings)
 
 
+#: SMC-PHD's birth models (the chapter's ``phd_birth`` reading): tracker-config
+#: overrides of ``phd``. ``total``: Table 2's P_birth = 0.2 as a scan's births, split
+#: over the previous scan's returns (the default); ``per_return``: 0.2/11 on every
+#: return of the previous scan.
+BIRTH_READINGS = {
+    "total": {"birth_model": "per_scan", "birth_mass": 0.2},
+    "per_return": {"birth_model": "per_return", "birth_mass": 0.2 / 11},
+}
+
+
+@dataclass(frozen=True)
+class HpdaBirthSweepConfig(HpdaPriorSweepConfig):
+    """SMC-PHD's birth model swept with the death prior: for every prior ``v`` in
+    ``priors`` and every key ``b`` of :data:`BIRTH_READINGS` in ``births`` (the
+    variants in that order, births fastest), SMC-PHD's ``p_survival = v`` and the
+    birth overrides ``BIRTH_READINGS[b]``; ``keep_scans`` (``None``: all) keeps the
+    first scans of every row; the other fields as in :class:`HpdaPriorSweepConfig`
+    (``algorithms`` must be ``("phd",)``).
+
+    Examples
+    --------
+    >>> cfg = HpdaBirthSweepConfig(2, priors=(0.99,), births=("total", "per_return"))
+    >>> [v["phd"]["birth_model"] for v in cfg.variants()]
+    ['per_scan', 'per_return']
+    >>> round(cfg.variants()[1]["phd"]["birth_mass"], 4)
+    0.0182
+    """
+
+    algorithms: tuple = ("phd",)
+    births: tuple = ("per_return",)
+    keep_scans: int | None = None
+
+    _KINDS: ClassVar[dict] = {
+        **HpdaPriorSweepConfig._KINDS,
+        "births": tuple,
+        "keep_scans": int,
+    }
+
+    def __post_init__(self):
+        super().__post_init__()
+        _check_algorithms(self, ("phd",))
+        check_names(self.births, "births", BIRTH_READINGS, "birth model")
+        k = self.keep_scans
+        if k is not None and (
+            isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1
+        ):
+            raise ValueError(f"keep_scans must be None or an integer >= 1, got {k!r}")
+
+    def variants(self):
+        return tuple(
+            {"phd": {"p_survival": v, **BIRTH_READINGS[b]}}
+            for v in self.priors
+            for b in self.births
+        )
+
+
 def _fresh(rng):
     """A generator equal to ``rng`` as ``montecarlo.run`` hands it to a trial: from a
     copy of its seed sequence, so that its ``spawn`` starts again at the first child."""
@@ -163,6 +224,14 @@ def _variants_extract(outs, config):
             [np.asarray(o["phd"]["aux"], dtype=np.float32) for o in outs]
         )
     return row
+
+
+def _births_extract(outs, config):
+    """SMC-PHD's count (int16) and sum of weights (float32) per variant and scan, the
+    first ``config.keep_scans`` scans."""
+    row = _variants_extract(outs, config)
+    k = config.keep_scans
+    return {name: x[:, :k] for name, x in row.items()} if k else row
 
 
 def _counts_call(config):
@@ -234,6 +303,45 @@ for _name, _what, _snr in (
             seed=HPDA_SEED + 2,
             runs=100,
             version="2",
+            notebook=_NB,
+        )
+    )
+for _case in (1, 2):
+    register(
+        Experiment(
+            name=f"hpda-ext-birth-case{_case}",
+            description=f"HPDA chapter, SMC-PHD with a birth mass of 0.2/11 per return "
+            f"at P_S = 0.98, 0.99, 0.995 in case {_case} (counts and sums of weights "
+            "per scan)",
+            trial=_variants_trial,
+            call=_variants_call,
+            extract=_births_extract,
+            config=HpdaBirthSweepConfig(_case),
+            seed=HPDA_SEED + _case,
+            runs=100,
+            version="1",
+            notebook=_NB,
+        )
+    )
+for _name, _what, _over in (
+    ("pd", "only P_D lowered to 0.6", {"pd": 0.6}),
+    ("clutter", "only the clutter raised to lambda V = 50", {"clutter_mean": 50.0}),
+):
+    register(
+        Experiment(
+            name=f"hpda-ext-birth-factor-{_name}",
+            description=f"HPDA chapter, the attribution of Fig. 9's early over-count: "
+            f"SMC-PHD in case 1 with {_what}, both birth models at P_S = 0.98, 0.99, "
+            "0.995 (counts and sums of weights over the first 50 scans)",
+            trial=_variants_trial,
+            call=_variants_call,
+            extract=_births_extract,
+            config=HpdaBirthSweepConfig(
+                1, births=tuple(BIRTH_READINGS), keep_scans=50, **_over
+            ),
+            seed=HPDA_SEED + 1,
+            runs=100,
+            version="1",
             notebook=_NB,
         )
     )
