@@ -15,7 +15,7 @@ seeds of the chapter's Monte Carlo comparison (case ``c``: ``HPDA_SEED + c``), s
 * ``hpda-ext-birth-case1/2``: SMC-PHD alone with a birth mass per return, at every
   death prior (:class:`HpdaBirthSweepConfig`);
 * ``hpda-ext-birth-factor-pd`` / ``-clutter``: SMC-PHD alone in the one-factor
-  environments, both birth models at every death prior, the first 50 scans kept
+  environments, both birth models at every death prior, on the first 50 scans
   (:class:`HpdaBirthSweepConfig`).
 
 A row holds the estimated count per scan (int16) of every tracker and variant and, in
@@ -128,9 +128,9 @@ class HpdaBirthSweepConfig(HpdaPriorSweepConfig):
     """SMC-PHD's birth model swept with the death prior: for every prior ``v`` in
     ``priors`` and every key ``b`` of :data:`BIRTH_READINGS` in ``births`` (the
     variants in that order, births fastest), SMC-PHD's ``p_survival = v`` and the
-    birth overrides ``BIRTH_READINGS[b]``; ``keep_scans`` (``None``: all) keeps the
-    first scans of every row; the other fields as in :class:`HpdaPriorSweepConfig`
-    (``algorithms`` must be ``("phd",)``).
+    birth overrides ``BIRTH_READINGS[b]``; ``keep_scans`` (``None``: all) runs only
+    the first scans (the filter is causal); the other fields as in
+    :class:`HpdaPriorSweepConfig` (``algorithms`` must be ``("phd",)``).
 
     Examples
     --------
@@ -160,6 +160,12 @@ class HpdaBirthSweepConfig(HpdaPriorSweepConfig):
             isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1
         ):
             raise ValueError(f"keep_scans must be None or an integer >= 1, got {k!r}")
+
+    def scenario(self):
+        """The scenario overrides; ``keep_scans`` also shortens the runs to as many
+        scans (the filter is causal, so its first scans are as in a full run)."""
+        sc = super().scenario()
+        return sc if self.keep_scans is None else {**sc, "n_scans": self.keep_scans}
 
     def variants(self):
         return tuple(
@@ -332,7 +338,7 @@ for _name, _what, _over in (
             name=f"hpda-ext-birth-factor-{_name}",
             description=f"HPDA chapter, the attribution of Fig. 9's early over-count: "
             f"SMC-PHD in case 1 with {_what}, both birth models at P_S = 0.98, 0.99, "
-            "0.995 (counts and sums of weights over the first 50 scans)",
+            "0.995 (runs of the first 50 scans: counts and sums of weights)",
             trial=_variants_trial,
             call=_variants_call,
             extract=_births_extract,
