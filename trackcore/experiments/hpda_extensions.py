@@ -16,7 +16,9 @@ seeds of the chapter's Monte Carlo comparison (case ``c``: ``HPDA_SEED + c``), s
   death prior (:class:`HpdaBirthSweepConfig`);
 * ``hpda-ext-birth-factor-pd`` / ``-clutter``: SMC-PHD alone in the one-factor
   environments, both birth models at every death prior, on the first 50 scans
-  (:class:`HpdaBirthSweepConfig`).
+  (:class:`HpdaBirthSweepConfig`);
+* ``hpda-ext-turn``: T11b, HPDA-PF with its turn model and with constant-velocity
+  particles only, at every death prior, scored in the turns (:class:`HpdaTurnConfig`).
 
 A row holds the estimated count per scan (int16) of every tracker and variant and, in
 the prior sweep, SMC-PHD's sum of the particle weights per variant and scan (float32,
@@ -27,17 +29,24 @@ few for an interval); run ``i`` is the same in both versions.
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
 
-from ..scenarios.hpda_scenario import run_hpda_trial
+from ..scenarios.hpda_scenario import hpda_parameters, hpda_truth, run_hpda_trial
 from ._checks import check_names
 from ._core import Experiment, register
 from .registry import HPDA_SEED, HpdaMonteCarloConfig
 
-__all__ = ["HpdaBirthSweepConfig", "HpdaLadderConfig", "HpdaPriorSweepConfig"]
+__all__ = [
+    "HpdaBirthSweepConfig",
+    "HpdaLadderConfig",
+    "HpdaPriorSweepConfig",
+    "HpdaTurnConfig",
+]
 
 _NB = "book/000-hpda/07-extensions.ipynb"
 
@@ -351,3 +360,134 @@ for _name, _what, _over in (
             notebook=_NB,
         )
     )
+
+
+# ----------------------------------------------------------------------- T11b: turns
+#: HPDA-PF's control without a turn model: every mode moves to constant velocity.
+CV_ONLY_TPM = ((1.0, 0.0, 0.0), (1.0, 0.0, 0.0), (1.0, 0.0, 0.0))
+#: Scans after a turn's end counted with the turn (where a filter without a turn
+#: model still lags), and the radius within which an estimate counts as a hit [m].
+TURN_AFTER, TURN_RADIUS = 10, 500.0
+#: The columns of a row's ``hpda.turn`` (per variant).
+TURN_COLUMNS = ("rmse_turn", "miss_turn", "rmse_straight", "miss_straight")
+
+
+def _turn_mask(truth, after=TURN_AFTER):
+    """``(K, n_targets)`` bool: the scans of each target's turn and the ``after``
+    scans after it, while the target lives."""
+    turning = truth.modes >= 2
+    mask = turning.copy()
+    for t in range(turning.shape[1]):
+        ks = np.flatnonzero(turning[:, t])
+        if ks.size:
+            mask[ks[-1] + 1 : ks[-1] + 1 + after, t] = True
+    return mask & truth.alive
+
+
+def _turn_errors(run, truth, after=TURN_AFTER, radius=TURN_RADIUS):
+    """Position errors of a tracker run's estimates in the turns and in straight
+    flight: per live target and scan the distance to the nearest estimate, a hit
+    when within ``radius``. Returns the RMSE over the hits and the share of misses,
+    in the turns (and ``after`` scans after) and elsewhere, pooled over the targets
+    (``TURN_COLUMNS``; NaN RMSE where there is no hit)."""
+    K, C = run.estimates.shape[:2]
+    if truth.alive.shape[0] != K:
+        raise ValueError(f"run has {K} scans, truth {truth.alive.shape[0]}")
+    valid = np.arange(C)[None, :] < run.n_estimates[:, None]
+    E = np.where(valid[..., None], run.estimates[..., :2], np.nan)
+    Y = truth.states[..., :2]
+    dd = np.hypot(
+        E[:, :, None, 0] - Y[:, None, :, 0], E[:, :, None, 1] - Y[:, None, :, 1]
+    )
+    d = np.min(np.where(np.isnan(dd), np.inf, dd), axis=1)
+    hit = truth.alive & (d <= radius)
+    turn = _turn_mask(truth, after)
+    out = []
+    for g in (turn, truth.alive & ~turn):
+        h = g & hit
+        out += [
+            float(np.sqrt(np.mean(d[h] ** 2))) if h.any() else math.nan,
+            1.0 - h.sum() / g.sum(),
+        ]
+    return np.array(out)
+
+
+@dataclass(frozen=True)
+class HpdaTurnConfig(HpdaPriorSweepConfig):
+    """HPDA-PF (T11b) with its turn model and with constant-velocity particles only
+    (:data:`CV_ONLY_TPM`), at every ``pi11`` in ``priors``, on the same scans and
+    particle streams; the other fields as in :class:`HpdaPriorSweepConfig`
+    (``algorithms`` must be ``("hpda",)``).
+
+    Examples
+    --------
+    >>> cfg = HpdaTurnConfig(1, priors=(0.99,))
+    >>> [sorted(v["hpda"]) for v in cfg.variants()]
+    [['pi11'], ['mode_tpm', 'pi11']]
+    """
+
+    algorithms: tuple = ("hpda",)
+
+    def __post_init__(self):
+        super().__post_init__()
+        _check_algorithms(self, ("hpda",))
+
+    def variants(self):
+        return tuple(
+            {"hpda": dict(pi11=v, **extra)}
+            for v in self.priors
+            for extra in ({}, {"mode_tpm": CV_ONLY_TPM})
+        )
+
+
+def _turn_trial(rng, case, variants, scenario_overrides=None):
+    """HPDA-PF once per override dict in ``variants`` (fresh copies of run ``i``'s
+    generator: the same scans and particle streams), scored by :func:`_turn_errors`;
+    returns ``(variants, 4)``."""
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(f"rng must be a numpy Generator, got {type(rng).__name__}")
+    params = hpda_parameters(case)
+    if scenario_overrides:
+        params = dataclasses.replace(params, **scenario_overrides)
+    truth = hpda_truth("B", n_scans=params.n_scans)
+    rows = []
+    for ov in variants:
+        out = run_hpda_trial(
+            _fresh(rng),
+            case,
+            ("hpda",),
+            keep_estimates=True,
+            overrides=ov,
+            scenario_overrides=scenario_overrides,
+        )
+        rows.append(_turn_errors(out["hpda"]["run"], truth))
+    return np.array(rows)
+
+
+def _turn_call(config):
+    return (config.case, config.variants()), {
+        "scenario_overrides": config.scenario() or None
+    }
+
+
+def _turn_extract(out, config):
+    """HPDA-PF's errors per variant (``TURN_COLUMNS``, float64)."""
+    return {"hpda.turn": np.asarray(out, dtype=np.float64)}
+
+
+register(
+    Experiment(
+        name="hpda-ext-turn",
+        description="HPDA chapter, T11b: HPDA-PF with its turn model and with constant-"
+        "velocity particles only, at Pi_11 = 0.98, 0.99, 0.995 in case 1 (position "
+        "errors in the turns and in straight flight)",
+        trial=_turn_trial,
+        call=_turn_call,
+        extract=_turn_extract,
+        config=HpdaTurnConfig(1),
+        seed=HPDA_SEED + 1,
+        runs=100,
+        version="1",
+        notebook=_NB,
+    )
+)
