@@ -80,7 +80,15 @@ class HpdaPriorSweepConfig(HpdaMonteCarloConfig):
     """The death prior swept: for every value ``v`` in ``priors``, HPDA's ``pi11`` and
     SMC-PHD's ``p_survival`` both set to ``v`` and ``algorithms`` (some of ``hpda``,
     ``phd``) run on the same scans; the other fields as in
-    :class:`~trackcore.experiments.HpdaMonteCarloConfig`."""
+    :class:`~trackcore.experiments.HpdaMonteCarloConfig`.
+
+    Examples
+    --------
+    >>> from trackcore.experiments.hpda_extensions import HpdaPriorSweepConfig
+    >>> cfg = HpdaPriorSweepConfig(1, priors=(0.98, 0.995))
+    >>> cfg.variants()[0]
+    {'hpda': {'pi11': 0.98}, 'phd': {'p_survival': 0.98}}
+    """
 
     algorithms: tuple = ("hpda", "phd")
     priors: tuple = (0.98, 0.99, 0.995)
@@ -106,7 +114,15 @@ class HpdaLadderConfig(HpdaMonteCarloConfig):
     """The clustering hybrid's printed reading (``clustering_literal``) with the strong
     reading's changes added one at a time: ``readings`` are keys of
     :data:`LADDER_READINGS`, all run on the same scans; the other fields as in
-    :class:`~trackcore.experiments.HpdaMonteCarloConfig`."""
+    :class:`~trackcore.experiments.HpdaMonteCarloConfig`.
+
+    Examples
+    --------
+    >>> from trackcore.experiments.hpda_extensions import HpdaLadderConfig
+    >>> cfg = HpdaLadderConfig(2, readings=("literal", "chi2_gate"))
+    >>> cfg.variants()
+    ({'clustering_literal': {}}, {'clustering_literal': {'link_d2': 9.2103}})
+    """
 
     algorithms: tuple = ("clustering_literal",)
     readings: tuple = tuple(LADDER_READINGS)
@@ -161,14 +177,14 @@ class HpdaBirthSweepConfig(HpdaPriorSweepConfig):
     }
 
     def __post_init__(self):
-        super().__post_init__()
-        _check_algorithms(self, ("phd",))
-        check_names(self.births, "births", BIRTH_READINGS, "birth model")
         k = self.keep_scans
         if k is not None and (
             isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1
         ):
             raise ValueError(f"keep_scans must be None or an integer >= 1, got {k!r}")
+        super().__post_init__()
+        _check_algorithms(self, ("phd",))
+        check_names(self.births, "births", BIRTH_READINGS, "birth model")
 
     def scenario(self):
         """The scenario overrides; ``keep_scans`` also shortens the runs to as many
@@ -491,3 +507,39 @@ register(
         notebook=_NB,
     )
 )
+
+
+# ------------------------------------------------------------- Fig. 6: the single run
+def _median_run(values):
+    """The run that stands for a set of runs: the ``(n + 1) // 2``-th smallest of
+    ``values`` (the 50th of 100), ties to the lower run index."""
+    v = np.asarray(values, dtype=float)
+    if v.ndim != 1 or v.size == 0 or np.isnan(v).any():
+        raise ValueError("values must be a non-empty 1-D array without NaN")
+    return int(np.argsort(v, kind="stable")[(v.size - 1) // 2])
+
+
+def _identity_report(run, truth, radius=TURN_RADIUS, min_scans=5):
+    """Track identities of a tracker run against the truth: the number of distinct
+    identities, per target the fragmentation (the identities within ``radius`` of it
+    for ``min_scans`` scans or more, minus one; 0 when none follows it) and the share
+    of its life with an estimate within ``radius``."""
+    K, C = run.ids.shape
+    if truth.alive.shape[0] != K:
+        raise ValueError(f"run has {K} scans, truth {truth.alive.shape[0]}")
+    valid = np.arange(C)[None, :] < run.n_estimates[:, None]
+    ids = np.where(valid, run.ids, -1)
+    E, Y = run.estimates[..., :2], truth.states[..., :2]
+    dd = np.hypot(
+        E[:, :, None, 0] - Y[:, None, :, 0], E[:, :, None, 1] - Y[:, None, :, 1]
+    )
+    near = valid[..., None] & truth.alive[:, None, :]
+    near &= np.nan_to_num(dd, nan=np.inf) <= radius
+    frag, cover = [], []
+    for t in range(truth.alive.shape[1]):
+        _, n = np.unique(ids[near[:, :, t]], return_counts=True)
+        frag.append(max(int((n >= min_scans).sum()) - 1, 0))
+        life = truth.alive[:, t]
+        hit = near[:, :, t].any(axis=1)[life]
+        cover.append(float(hit.mean()) if life.any() else math.nan)
+    return len(np.unique(ids[ids >= 0])), np.array(frag), np.array(cover)

@@ -59,7 +59,19 @@ class SmcPhdConfig:
     ``velocity_std = 1.5`` m/s, ``mode_tpm``, ``kmeans_iterations = 10``,
     ``extraction_radius = 1000`` m (particles farther than this from every
     k-means centre are ignored in the means), ``max_estimates``,
-    ``max_particles``."""
+    ``max_particles``.
+
+    Examples
+    --------
+    >>> from trackcore.trackers.smc_phd import SmcPhdConfig
+    >>> cfg = SmcPhdConfig(pd=0.9, clutter_density_xy=3e-7)
+    >>> cfg.n_per_target, cfg.n_birth, cfg.birth_mass, cfg.birth_model
+    (1000, 500, 0.2, 'per_scan')
+    >>> SmcPhdConfig(pd=0.9, clutter_density_xy=3e-7, birth_model="x")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: birth_model must be one of ('per_scan', 'per_return'), got 'x'
+    """
     pd: float
     clutter_density_xy: float
     T: float = 10.0
@@ -282,6 +294,20 @@ def smc_phd_run(z, offsets, config: SmcPhdConfig, rng) -> TrackerRun:
     whose ``count`` is ``round(N_hat)``, ``estimates`` the k-means centres
     (``n_estimates`` of them, at most ``count``; ``ids`` are -1: the PHD has no track
     identities) and ``aux`` the total mass ``N_hat``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from dataclasses import replace
+    >>> from trackcore.scenarios import (hpda_parameters, hpda_tracker_configs, hpda_truth,
+    ...                                  simulate_hpda_scans)
+    >>> from trackcore.trackers.smc_phd import smc_phd_run
+    >>> p = replace(hpda_parameters(1), n_scans=40)
+    >>> scans = simulate_hpda_scans(hpda_truth(n_scans=40), p, np.random.default_rng(1))
+    >>> run = smc_phd_run(scans.z, scans.offsets, hpda_tracker_configs(p)["phd"],
+    ...                   np.random.default_rng(2))
+    >>> run.count.shape, round(float(run.aux[-1]), 1), bool((run.ids == -1).all())
+    ((40,), 1.1, True)
     """
     if not isinstance(config, SmcPhdConfig):
         raise TypeError(f"config must be SmcPhdConfig, got {type(config).__name__}")
