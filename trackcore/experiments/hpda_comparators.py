@@ -53,7 +53,19 @@ PRIORS = (0.98, 0.99, 0.995)
 class HpdaComparatorConfig(_Config):
     """Case 3 at death prior ``pi11`` (HPDA-PF's and the comparators' Pi_11): HPDA-PF at
     every SNR in ``rhos`` and the distance-only ``comparators`` (some of
-    :data:`COMPARATORS`) on the same scans."""
+    :data:`COMPARATORS`) on the same scans.
+
+    Examples
+    --------
+    >>> from trackcore.experiments.hpda_comparators import HpdaComparatorConfig
+    >>> cfg = HpdaComparatorConfig(0.99)
+    >>> cfg.rhos, cfg.comparators
+    ((2.0, 3.0, 5.0, 10.0), ('nn-likelihood', 'ipda'))
+    >>> HpdaComparatorConfig(1.5)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: pi11 must lie in (0, 1), got 1.5
+    """
 
     pi11: float
     rhos: tuple = RHOS

@@ -82,6 +82,13 @@ class HpdaParameters:
     ``sigma_theta`` bearing noise std [rad], ``sigma_a`` process-noise acceleration
     std [m/s^2], ``a_m`` manoeuvre acceleration [m/s^2].  Every field is checked
     when the record is built.
+
+    Examples
+    --------
+    >>> from trackcore.scenarios.hpda_scenario import HpdaParameters
+    >>> p = HpdaParameters(pd=0.9, snr=10.0, clutter_mean=10.0)
+    >>> round(p.tau, 3), p.n_scans, round(p.clutter_density_xy * 1e9, 3)
+    (1.159, 451, 31.831)
     """
     pd: float
     snr: float
@@ -147,6 +154,12 @@ def hpda_stress_clutter_mean(lambda_vg=1.0, *, reference_range=5000.0, sigma_r=S
     point of ``gate_probability``.  Clutter uniform over the disc of radius ``radius``
     has polar density ``lambda_z = lambda V r / (pi radius^2)``, so
     ``lambda V = lambda_vg radius^2 / (r g^2 sigma_r sigma_theta)``.
+
+    Examples
+    --------
+    >>> from trackcore.scenarios.hpda_scenario import hpda_stress_clutter_mean
+    >>> round(hpda_stress_clutter_mean(), 1), round(hpda_stress_clutter_mean(2.0), 1)
+    (276.5, 553.0)
     """
     lv = as_positive(lambda_vg, "lambda_vg")
     r = as_positive(reference_range, "reference_range")
@@ -171,7 +184,16 @@ def hpda_parameters(case: int) -> HpdaParameters:
     paper): case 1's detection ``(P_D, rho) = (0.9, 10)`` with a coarse sensor
     (``sigma_r = 150`` m, ``sigma_theta = 3`` deg) and the clutter of
     :func:`hpda_stress_clutter_mean` (one false return expected in a gate at 5 km,
-    about 276 per scan)."""
+    about 276 per scan).
+
+    Examples
+    --------
+    >>> from trackcore.scenarios.hpda_scenario import hpda_parameters
+    >>> [(p.pd, p.snr, p.clutter_mean) for p in map(hpda_parameters, (1, 2))]
+    [(0.9, 10.0, 10.0), (0.6, 5.0, 50.0)]
+    >>> round(hpda_parameters(3).clutter_mean, 1)
+    276.5
+    """
     case = as_int(case, "case")
     if case == 1:
         return HpdaParameters(pd=0.9, snr=10.0, clutter_mean=10.0)
@@ -184,6 +206,15 @@ def hpda_parameters(case: int) -> HpdaParameters:
 
 
 class HpdaTruth(NamedTuple):
+    """Noise-free truth of the six targets of Table 1 (:func:`hpda_truth`).
+
+    Examples
+    --------
+    >>> from trackcore.scenarios.hpda_scenario import hpda_truth
+    >>> truth = hpda_truth()
+    >>> type(truth).__name__, truth.states.shape, truth.births.tolist()
+    ('HpdaTruth', (451, 6, 4), [0, 100, 150, 250, 300, 150])
+    """
     states: np.ndarray   # (K, 6, 4), NaN where the target is not alive
     alive: np.ndarray    # (K, 6) bool
     modes: np.ndarray    # (K, 6) int: 1 CV, 2 left turn, 3 right turn, 0 not alive
@@ -193,7 +224,16 @@ class HpdaTruth(NamedTuple):
 
 class HpdaScans(NamedTuple):
     """All scans of one run, concatenated: scan ``k`` is rows
-    ``offsets[k]:offsets[k+1]``."""
+    ``offsets[k]:offsets[k+1]``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import hpda_parameters, hpda_truth, simulate_hpda_scans
+    >>> scans = simulate_hpda_scans(hpda_truth(), hpda_parameters(1), np.random.default_rng(0))
+    >>> type(scans).__name__, scans.n_scans, scans.scan(0)[0].shape[1]
+    ('HpdaScans', 451, 2)
+    """
     z: np.ndarray          # (M, 2) range [m], bearing [rad]
     amplitude: np.ndarray  # (M,) reported amplitude (>= tau)
     offsets: np.ndarray    # (K + 1,) int64
@@ -209,7 +249,15 @@ class HpdaScans(NamedTuple):
 
 
 def hpda_truth(variant="B", T=10.0, a_m=0.01, n_scans=451, turn_length=20):
-    """Noise-free truth of Table 1 (see module docstring for the variants)."""
+    """Noise-free truth of Table 1 (see module docstring for the variants).
+
+    Examples
+    --------
+    >>> from trackcore.scenarios.hpda_scenario import hpda_truth
+    >>> truth = hpda_truth()
+    >>> truth.states.shape, truth.deaths.tolist(), int((truth.modes >= 2).sum())
+    ((451, 6, 4), [200, 350, 400, 450, 450, 350], 120)
+    """
     if variant not in ("A", "B"):
         raise ValueError(f"variant must be 'A' or 'B', got {variant!r}")
     T = as_positive(T, "T")
@@ -247,7 +295,15 @@ def hpda_truth(variant="B", T=10.0, a_m=0.01, n_scans=451, turn_length=20):
 
 
 def hpda_true_count(truth: HpdaTruth) -> np.ndarray:
-    """True number of targets per scan (Fig 5)."""
+    """True number of targets per scan (Fig 5).
+
+    Examples
+    --------
+    >>> from trackcore.scenarios.hpda_scenario import hpda_true_count, hpda_truth
+    >>> n = hpda_true_count(hpda_truth())
+    >>> int(n.max()), round(float(n.mean()), 3)
+    (5, 2.785)
+    """
     if not isinstance(truth, HpdaTruth):
         raise TypeError(f"truth must be HpdaTruth, got {type(truth).__name__}")
     return truth.alive.sum(axis=1)
@@ -258,6 +314,14 @@ def simulate_hpda_scans(truth: HpdaTruth, params: HpdaParameters, rng) -> HpdaSc
     amplitude threshold) plus Poisson clutter, shuffled within each scan.
 
     Vectorised over all scans; randomness only from ``rng``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios import hpda_parameters, hpda_truth, simulate_hpda_scans
+    >>> scans = simulate_hpda_scans(hpda_truth(), hpda_parameters(1), np.random.default_rng(0))
+    >>> scans.n_scans, int((scans.origin >= 0).sum()), int((scans.origin < 0).sum())
+    (451, 1140, 4514)
     """
     rng = as_rng(rng)
     if not isinstance(params, HpdaParameters):
@@ -325,7 +389,15 @@ def hpda_tracker_configs(params: HpdaParameters, **overrides):
     * ``clustering_literal``: the printed reading (``d <= eps_w = 1``, no motion term,
       chains seeded at ``k - eta`` only, support from ROIs only).
 
-    ``overrides`` maps an algorithm key to a dict of field overrides."""
+    ``overrides`` maps an algorithm key to a dict of field overrides.
+
+    Examples
+    --------
+    >>> from trackcore.scenarios.hpda_scenario import hpda_parameters, hpda_tracker_configs
+    >>> cfgs = hpda_tracker_configs(hpda_parameters(1), phd={"birth_model": "per_return"})
+    >>> sorted(cfgs), cfgs["phd"].birth_model, cfgs["hpda"].pi11
+    (['clustering', 'clustering_literal', 'hpda', 'hpda_nn', 'hpda_sn', 'phd'], 'per_return', 0.99)
+    """
     if not isinstance(params, HpdaParameters):
         raise TypeError(f"params must be HpdaParameters, got {type(params).__name__}")
     common = dict(T=params.T, sigma_r=params.sigma_r, sigma_theta=params.sigma_theta,
@@ -376,7 +448,25 @@ def track_delays(run, truth: HpdaTruth, radius=500.0, T=10.0):
     ``radius`` of the target; NaN if never) and termination delay (scans
     after death until no estimate lies within ``radius`` of the target's
     CV-extrapolated position, ``T`` the scan period; capped at the end of the run)
-    per target."""
+    per target.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from dataclasses import replace
+    >>> from trackcore.scenarios.hpda_scenario import (hpda_parameters, hpda_tracker_configs,
+    ...                                                hpda_truth, simulate_hpda_scans)
+    >>> from trackcore.trackers import smc_phd_run
+    >>> p = replace(hpda_parameters(1), n_scans=60)
+    >>> truth = hpda_truth(n_scans=60)
+    >>> scans = simulate_hpda_scans(truth, p, np.random.default_rng(1))
+    >>> run = smc_phd_run(scans.z, scans.offsets, hpda_tracker_configs(p)["phd"],
+    ...                   np.random.default_rng(2))
+    >>> from trackcore.scenarios.hpda_scenario import track_delays
+    >>> conf, term = track_delays(run, truth)
+    >>> conf.tolist(), term.tolist()
+    ([1.0, nan, nan, nan, nan, nan], [nan, nan, nan, nan, nan, nan])
+    """
     _check_run_truth(run, truth)
     radius = as_positive(radius, "radius")
     T = as_positive(T, "T")
@@ -473,7 +563,25 @@ def hpda_run_metrics(run, truth: HpdaTruth, c=500.0, p=2.0):
     m^p), ``false_tracks``, the number of estimates farther than ``c`` from every live
     target.  Fractions of live target-scans with an estimate within ``c`` of the
     target: ``coverage_straight`` (target flying straight) and ``coverage_turn``
-    (target in its turn; NaN if the truth has no turn)."""
+    (target in its turn; NaN if the truth has no turn).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from dataclasses import replace
+    >>> from trackcore.scenarios.hpda_scenario import (hpda_parameters, hpda_tracker_configs,
+    ...                                                hpda_truth, simulate_hpda_scans)
+    >>> from trackcore.trackers import smc_phd_run
+    >>> p = replace(hpda_parameters(1), n_scans=60)
+    >>> truth = hpda_truth(n_scans=60)
+    >>> scans = simulate_hpda_scans(truth, p, np.random.default_rng(1))
+    >>> run = smc_phd_run(scans.z, scans.offsets, hpda_tracker_configs(p)["phd"],
+    ...                   np.random.default_rng(2))
+    >>> from trackcore.scenarios.hpda_scenario import hpda_run_metrics
+    >>> m = hpda_run_metrics(run, truth)
+    >>> round(m["abs_count_error"], 3), round(m["ospa"], 1)
+    (0.117, 77.0)
+    """
     _check_run_truth(run, truth)
     c = as_positive(c, "c")
     p = as_positive(p, "p")
@@ -509,7 +617,17 @@ def run_hpda_trial(rng, case, algorithms=("hpda", "phd", "clustering"), keep_est
     scans and the same particle stream whatever runs beside it.  Returns a dict
     ``{key: {"count", "aux", "conf_delay", "term_delay", ["metrics"],
     ["diagnostics"], ["run"]}}`` plus ``"n_measurements"``; ``metrics=True`` adds
-    :func:`hpda_run_metrics`, HPDA runs add their selection diagnostics."""
+    :func:`hpda_run_metrics`, HPDA runs add their selection diagnostics.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios.hpda_scenario import run_hpda_trial
+    >>> out = run_hpda_trial(np.random.default_rng(0), 1, ("phd",),
+    ...                      scenario_overrides={"n_scans": 40})
+    >>> sorted(out), out["phd"]["count"].shape, out["n_measurements"]
+    (['n_measurements', 'phd'], (40,), 468)
+    """
     for flag, name in ((keep_estimates, "keep_estimates"), (metrics, "metrics")):
         if not isinstance(flag, (bool, np.bool_)):
             raise TypeError(f"{name} must be True or False, got {flag!r}")
@@ -568,6 +686,15 @@ def count_error_ci(counts, n_true, *, versus=None, paired=True, kind="e", early=
     Like the other interval functions of :mod:`trackcore.stats`, it needs at least
     :data:`~trackcore.stats.MIN_RUNS` runs in ``counts`` and in ``versus`` (ValueError
     below), for every ``kind``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios.hpda_scenario import count_error_ci
+    >>> n_true = np.array([1, 1, 2, 2])
+    >>> counts = n_true + np.random.default_rng(0).integers(-1, 2, size=(40, 4))
+    >>> f"{count_error_ci(counts, n_true, kind='s'):+.3f}"
+    '+0.081 [-0.044, +0.200]'
     """
     if kind not in ("e", "s", "e-bc"):
         raise ValueError(f"kind must be 'e', 's' or 'e-bc', got {kind!r}")

@@ -192,6 +192,18 @@ class HpdaPfConfig:
     disables), and ``tentative_yield = True`` (a tentative track that selects
     the same measurement as a confirmed track is deleted: the confirmed track
     owns it).
+
+    Examples
+    --------
+    >>> import math
+    >>> from trackcore.trackers.hpda_pf import HpdaPfConfig
+    >>> cfg = HpdaPfConfig(pd=0.9, snr=10.0, clutter_density_xy=10 / (math.pi * 1e8))
+    >>> cfg.n_particles, cfg.p_confirm, cfg.p_terminate, round(cfg.gate_threshold, 2)
+    (1000, 0.9, 0.6, 9.21)
+    >>> HpdaPfConfig(pd=1.5, snr=10.0, clutter_density_xy=1e-7)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: pd must be < 1.0, got 1.5
     """
     pd: float
     snr: float
@@ -263,6 +275,15 @@ class TrackerRun(NamedTuple):
     tentative tracks; SMC-PHD: sum of weights; clustering: number of tracks);
     ``diagnostics`` (HPDA only, else ``None``): a (2, 7) array, rows confirmed and
     tentative tracks, columns :data:`SELECTION_DIAGNOSTICS`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers.hpda_pf import TrackerRun
+    >>> run = TrackerRun(np.array([0, 1]), np.full((2, 4, 4), np.nan), np.full((2, 4), -1),
+    ...                  np.array([0, 1]), np.zeros(2))
+    >>> run.count.tolist(), run.estimates.shape, run.diagnostics is None
+    ([0, 1], (2, 4, 4), True)
     """
     count: np.ndarray
     estimates: np.ndarray
@@ -281,7 +302,20 @@ _MIN_RANGE = 1e-6
 
 def check_scans(z, amplitude, offsets):
     """Validate a concatenated run of scans (ranges ``> 0``, finite bearings, no NaN
-    amplitude, valid offsets); returns contiguous arrays ``(z, amplitude, offsets)``."""
+    amplitude, valid offsets); returns contiguous arrays ``(z, amplitude, offsets)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers.hpda_pf import check_scans
+    >>> z, amp, off = check_scans([[1000.0, 0.1], [2000.0, -0.2]], [3.0, 4.0], [0, 1, 2])
+    >>> z.shape, amp.tolist(), off.tolist()
+    ((2, 2), [3.0, 4.0], [0, 1, 2])
+    >>> check_scans([[-5.0, 0.1]], [3.0], [0, 1])  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: z[:, 0] (range) must be >= 1e-06 m
+    """
     Z = as_array(z, "z", ndim=2)
     if Z.shape[1] != 2:
         raise ValueError(f"z must have shape (M, 2), got {Z.shape}")
@@ -970,7 +1004,17 @@ def clutter_likelihood_ratios(selection, clutter_mean, snr, pd, gate_probability
     probability ``gate_probability``, amplitudes ``tau + Exp(1)`` with
     ``tau = -(1 + snr) ln pd``.  It calls the tracker's own gating and selection code.
     A valid existence update has mean 1 here (its ratio is a likelihood ratio of the
-    data it uses); returns the ``(n_draws,)`` ratios."""
+    data it uses); returns the ``(n_draws,)`` ratios.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers.hpda_pf import clutter_likelihood_ratios
+    >>> rng = np.random.default_rng(0)
+    >>> lr = clutter_likelihood_ratios("ipda", 1.0, 3.0, 0.9, 0.99, 20000, rng)
+    >>> lr.shape, round(float(lr.mean()), 1)
+    ((20000,), 1.0)
+    """
     if not isinstance(selection, str) or selection not in _RULES:
         raise ValueError(f"selection must be one of {tuple(_RULES)}, got {selection!r}")
     lv = as_scalar(clutter_mean, "clutter_mean")
@@ -1006,6 +1050,20 @@ def hpda_pf_run(z, amplitude, offsets, config: HpdaPfConfig, rng) -> TrackerRun:
     origin.  Returns a :class:`TrackerRun` with the number of confirmed
     tracks per scan and their estimates (``aux``: number of tentative tracks;
     ``diagnostics``: how often the selection rules could and did differ).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from dataclasses import replace
+    >>> from trackcore.scenarios import (hpda_parameters, hpda_tracker_configs, hpda_truth,
+    ...                                  simulate_hpda_scans)
+    >>> from trackcore.trackers.hpda_pf import hpda_pf_run
+    >>> p = replace(hpda_parameters(1), n_scans=40)
+    >>> scans = simulate_hpda_scans(hpda_truth(n_scans=40), p, np.random.default_rng(1))
+    >>> cfg = hpda_tracker_configs(p)["hpda"]
+    >>> run = hpda_pf_run(scans.z, scans.amplitude, scans.offsets, cfg, np.random.default_rng(2))
+    >>> run.count.shape, int(run.count[-1]), int(hpda_truth(n_scans=40).alive[-1].sum())
+    ((40,), 1, 1)
     """
     if not isinstance(config, HpdaPfConfig):
         raise TypeError(f"config must be HpdaPfConfig, got {type(config).__name__}")

@@ -41,6 +41,9 @@ from .smc_phd_step import phd_range_bearing_update_kernel
 
 __all__ = ["SmcPhdConfig", "smc_phd_run"]
 
+#: The birth models of :class:`SmcPhdConfig`: ``birth_mass`` per scan or per return.
+BIRTH_MODELS = ("per_scan", "per_return")
+
 
 @dataclass(frozen=True)
 class SmcPhdConfig:
@@ -48,11 +51,27 @@ class SmcPhdConfig:
     built (``ValueError``/``TypeError`` naming the field).  From the paper: ``pd``,
     ``T``, ``sigma_r``, ``sigma_theta``, ``sigma_a``, ``a_m``, ``n_per_target =
     1000`` (N), ``n_birth = 500`` (B_k), ``birth_mass = 0.2`` (P_birth, read as the
-    expected number of births per scan).  Choices: ``p_survival = 0.99``,
+    expected number of births per scan).  Choices: ``birth_model = "per_scan"``
+    (``birth_mass`` is the total mass of one scan's births, split equally over the
+    previous scan's returns; with ``"per_return"`` every return of the previous scan
+    carries ``birth_mass``, so a scan's births total ``birth_mass`` times its number of
+    returns, still on ``n_birth`` particles), ``p_survival = 0.99``,
     ``velocity_std = 1.5`` m/s, ``mode_tpm``, ``kmeans_iterations = 10``,
     ``extraction_radius = 1000`` m (particles farther than this from every
     k-means centre are ignored in the means), ``max_estimates``,
-    ``max_particles``."""
+    ``max_particles``.
+
+    Examples
+    --------
+    >>> from trackcore.trackers.smc_phd import SmcPhdConfig
+    >>> cfg = SmcPhdConfig(pd=0.9, clutter_density_xy=3e-7)
+    >>> cfg.n_per_target, cfg.n_birth, cfg.birth_mass, cfg.birth_model
+    (1000, 500, 0.2, 'per_scan')
+    >>> SmcPhdConfig(pd=0.9, clutter_density_xy=3e-7, birth_model="x")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: birth_model must be one of ('per_scan', 'per_return'), got 'x'
+    """
     pd: float
     clutter_density_xy: float
     T: float = 10.0
@@ -63,6 +82,7 @@ class SmcPhdConfig:
     n_per_target: int = 1000
     n_birth: int = 500
     birth_mass: float = 0.2
+    birth_model: str = "per_scan"
     p_survival: float = 0.99
     velocity_std: float = 1.5
     mode_tpm: tuple = ((0.90, 0.05, 0.05), (0.10, 0.90, 0.0), (0.10, 0.0, 0.90))
@@ -78,6 +98,9 @@ class SmcPhdConfig:
         _finite(self, "birth_mass", low=0.0)
         if self.n_birth == 0 and self.birth_mass > 0:
             raise ValueError("n_birth must be >= 1 when birth_mass > 0")
+        if not isinstance(self.birth_model, str) or self.birth_model not in BIRTH_MODELS:
+            raise ValueError(
+                f"birth_model must be one of {BIRTH_MODELS}, got {self.birth_model!r}")
         _finite(self, "p_survival", low=0.0, high=1.0)
         _integer(self, "kmeans_iterations", 0)
         _finite(self, "extraction_radius", low=0.0, low_open=True)
@@ -163,6 +186,7 @@ def _phd_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_n, out
     iters = int(prm[10])
     Lmax = int(prm[11])
     gate2 = prm[12] * prm[12]
+    per_return = prm[13] > 0.0
     C = out_est.shape[1]
     K = off.shape[0] - 1
     cap = Lmax + B
@@ -198,6 +222,7 @@ def _phd_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_n, out
             mp = a1 - a0
             if mp > 0:
                 nb_ = B
+                mass_k = mass_b * mp if per_return else mass_b
                 for i in range(nb_):
                     j = a0 + (i % mp)
                     r = Z[j, 0] + sr * rng.standard_normal()
@@ -207,7 +232,7 @@ def _phd_run_kernel(Z, off, prm, cum_tpm, R, rng, out_count, out_est, out_n, out
                     X[L + i, 2] = vstd * rng.standard_normal()
                     X[L + i, 3] = vstd * rng.standard_normal()
                     M[L + i] = 0
-                    w[L + i] = mass_b / nb_
+                    w[L + i] = mass_k / nb_
                 jump_markov_propagate_kernel(X[L:L + nb_], M[L:L + nb_], cum_tpm, T, sigma_a,
                                              a_m, rng)
                 L += nb_
@@ -269,6 +294,20 @@ def smc_phd_run(z, offsets, config: SmcPhdConfig, rng) -> TrackerRun:
     whose ``count`` is ``round(N_hat)``, ``estimates`` the k-means centres
     (``n_estimates`` of them, at most ``count``; ``ids`` are -1: the PHD has no track
     identities) and ``aux`` the total mass ``N_hat``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from dataclasses import replace
+    >>> from trackcore.scenarios import (hpda_parameters, hpda_tracker_configs, hpda_truth,
+    ...                                  simulate_hpda_scans)
+    >>> from trackcore.trackers.smc_phd import smc_phd_run
+    >>> p = replace(hpda_parameters(1), n_scans=40)
+    >>> scans = simulate_hpda_scans(hpda_truth(n_scans=40), p, np.random.default_rng(1))
+    >>> run = smc_phd_run(scans.z, scans.offsets, hpda_tracker_configs(p)["phd"],
+    ...                   np.random.default_rng(2))
+    >>> run.count.shape, round(float(run.aux[-1]), 1), bool((run.ids == -1).all())
+    ((40,), 1.1, True)
     """
     if not isinstance(config, SmcPhdConfig):
         raise TypeError(f"config must be SmcPhdConfig, got {type(config).__name__}")
@@ -281,7 +320,7 @@ def smc_phd_run(z, offsets, config: SmcPhdConfig, rng) -> TrackerRun:
     prm = np.array([cfg.pd, cfg.clutter_density_xy, cfg.T, cfg.sigma_a, cfg.a_m, cfg.p_survival,
                     cfg.birth_mass, cfg.velocity_std, float(cfg.n_per_target),
                     float(cfg.n_birth), float(cfg.kmeans_iterations), float(cfg.max_particles),
-                    cfg.extraction_radius])
+                    cfg.extraction_radius, float(cfg.birth_model == "per_return")])
     K = off.shape[0] - 1
     C = cfg.max_estimates
     count = np.zeros(K, dtype=np.int64)

@@ -317,7 +317,21 @@ def _filter_kernel(X0, w0, Z, off, kappa_const, F, L, ps, birth_mean, birth_L, n
 # public API
 # --------------------------------------------------------------------------
 class SmcPhdModel(NamedTuple):
-    """Validated SMC-PHD model (build with :func:`smc_phd_model`)."""
+    """Validated SMC-PHD model (build with :func:`smc_phd_model`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers.smc_phd_step import smc_phd_model
+    >>> F = np.eye(4)
+    >>> F[0, 2] = F[1, 3] = 1.0
+    >>> model = smc_phd_model(F, 0.01 * np.eye(4), np.diag([25.0, 1e-4]), pd=0.9, ps=0.99,
+    ...                       clutter_intensity=1e-3, birth_mean=[1000.0, 0.0, 0.0, 0.0],
+    ...                       birth_cov=np.diag([100.0, 100.0, 1.0, 1.0]), n_birth=200,
+    ...                       birth_rate=0.1)
+    >>> type(model).__name__, model.F.shape, model.L.shape
+    ('SmcPhdModel', (4, 4), (4, 4))
+    """
 
     F: np.ndarray
     L: np.ndarray
@@ -334,7 +348,17 @@ class SmcPhdModel(NamedTuple):
 
 
 class SmcPhdUpdate(NamedTuple):
-    """Result of :func:`smc_phd_update`."""
+    """Result of :func:`smc_phd_update`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers.smc_phd_step import smc_phd_update
+    >>> up = smc_phd_update(np.array([[1000.0, 0.0]]), [1.0], np.zeros((0, 2)),
+    ...                     np.diag([25.0, 1e-4]), 0.9, 1e-3)
+    >>> type(up).__name__, up.w.round(2).tolist(), round(up.cardinality, 2)
+    ('SmcPhdUpdate', [0.1], 0.1)
+    """
 
     w: np.ndarray
     cardinality: float
@@ -344,7 +368,24 @@ class SmcPhdUpdate(NamedTuple):
 class SmcPhdStep(NamedTuple):
     """Result of :func:`smc_phd_step`: the resampled particles and weights,
     ``cardinality = N_hat`` (sum of the updated weights) and per measurement
-    ``C(z) / (kappa(z) + C(z))``."""
+    ``C(z) / (kappa(z) + C(z))``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers.smc_phd_step import smc_phd_model
+    >>> F = np.eye(4)
+    >>> F[0, 2] = F[1, 3] = 1.0
+    >>> model = smc_phd_model(F, 0.01 * np.eye(4), np.diag([25.0, 1e-4]), pd=0.9, ps=0.99,
+    ...                       clutter_intensity=1e-3, birth_mean=[1000.0, 0.0, 0.0, 0.0],
+    ...                       birth_cov=np.diag([100.0, 100.0, 1.0, 1.0]), n_birth=200,
+    ...                       birth_rate=0.1)
+    >>> from trackcore.trackers.smc_phd_step import smc_phd_step
+    >>> st = smc_phd_step(np.zeros((0, 4)), np.zeros(0), np.zeros((0, 2)), model,
+    ...                   np.random.default_rng(0), n_out=100)
+    >>> type(st).__name__, round(st.cardinality, 3)
+    ('SmcPhdStep', 0.01)
+    """
 
     particles: np.ndarray
     w: np.ndarray
@@ -354,7 +395,25 @@ class SmcPhdStep(NamedTuple):
 
 class SmcPhdFilterRun(NamedTuple):
     """Result of :func:`smc_phd_filter`: ``cardinality`` ``(K,)`` per scan and
-    the final particles and weights."""
+    the final particles and weights.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers.smc_phd_step import smc_phd_model
+    >>> F = np.eye(4)
+    >>> F[0, 2] = F[1, 3] = 1.0
+    >>> model = smc_phd_model(F, 0.01 * np.eye(4), np.diag([25.0, 1e-4]), pd=0.9, ps=0.99,
+    ...                       clutter_intensity=1e-3, birth_mean=[1000.0, 0.0, 0.0, 0.0],
+    ...                       birth_cov=np.diag([100.0, 100.0, 1.0, 1.0]), n_birth=200,
+    ...                       birth_rate=0.1)
+    >>> from trackcore.trackers.smc_phd_step import smc_phd_filter
+    >>> no_z = np.zeros((0, 2))
+    >>> out = smc_phd_filter(np.zeros((0, 4)), np.zeros(0), no_z, np.zeros(3, int), model,
+    ...                      np.random.default_rng(0), n_out=200)
+    >>> type(out).__name__, out.cardinality.shape, out.particles.shape
+    ('SmcPhdFilterRun', (2,), (200, 4))
+    """
 
     cardinality: np.ndarray
     particles: np.ndarray
@@ -402,7 +461,21 @@ def smc_phd_model(F, Q, R, *, pd, ps, clutter_intensity, birth_mean, birth_cov, 
     (> 0, expected clutter count per unit of range x bearing: ``lambda / V``);
     Gaussian birth density ``N(birth_mean, birth_cov)`` sampled with
     ``n_birth`` particles per scan of total weight ``birth_rate``; sensor
-    position; likelihood gate (see the module docstring)."""
+    position; likelihood gate (see the module docstring).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers.smc_phd_step import smc_phd_model
+    >>> F = np.eye(4)
+    >>> F[0, 2] = F[1, 3] = 1.0
+    >>> model = smc_phd_model(F, 0.01 * np.eye(4), np.diag([25.0, 1e-4]), pd=0.9, ps=0.99,
+    ...                       clutter_intensity=1e-3, birth_mean=[1000.0, 0.0, 0.0, 0.0],
+    ...                       birth_cov=np.diag([100.0, 100.0, 1.0, 1.0]), n_birth=200,
+    ...                       birth_rate=0.1)
+    >>> model.n_birth, model.birth_rate, model.pd
+    (200, 0.1, 0.9)
+    """
     F = as_square_matrix(F, "F")
     nx = F.shape[0]
     if nx < 2:
@@ -457,7 +530,18 @@ def smc_phd_update(particles, w, z, R, pd, clutter_intensity, *, sensor=(0.0, 0.
     (``m = 0`` allowed: every weight times ``1 - pd``).  ``R`` diagonal 2x2;
     ``clutter_intensity`` a scalar or ``(m,)`` array of ``kappa(z)`` (> 0).
     Returns :class:`SmcPhdUpdate` (new weight array, ``N_hat = sum w``, per
-    measurement ``C(z) / (kappa(z) + C(z))``)."""
+    measurement ``C(z) / (kappa(z) + C(z))``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers.smc_phd_step import smc_phd_update
+    >>> particles = np.column_stack([np.full(100, 1000.0), np.zeros(100)])
+    >>> R = np.diag([25.0, 1e-4])
+    >>> up = smc_phd_update(particles, np.full(100, 0.01), [[1000.0, 0.0]], R, 0.9, 1e-3)
+    >>> round(up.cardinality, 3), up.measurement_mass.round(3).tolist()
+    (1.1, [1.0])
+    """
     X, W = _particles_weights(particles, w)
     Z = as_measurements(z, "z", 2)
     R = _diag_R(R)
@@ -568,7 +652,24 @@ def smc_phd_step(particles, w, z, model: SmcPhdModel, rng, *, n_out=None) -> Smc
     births, update with the range-bearing scan ``z`` ``(m, 2)`` (``m = 0``
     allowed) and resample ``n_out`` particles (default ``N``).  ``model`` from
     :func:`smc_phd_model`; ``rng`` a ``numpy.random.Generator`` (draw order in
-    the module docstring).  Returns :class:`SmcPhdStep` (new arrays)."""
+    the module docstring).  Returns :class:`SmcPhdStep` (new arrays).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers.smc_phd_step import smc_phd_model
+    >>> F = np.eye(4)
+    >>> F[0, 2] = F[1, 3] = 1.0
+    >>> model = smc_phd_model(F, 0.01 * np.eye(4), np.diag([25.0, 1e-4]), pd=0.9, ps=0.99,
+    ...                       clutter_intensity=1e-3, birth_mean=[1000.0, 0.0, 0.0, 0.0],
+    ...                       birth_cov=np.diag([100.0, 100.0, 1.0, 1.0]), n_birth=200,
+    ...                       birth_rate=0.1)
+    >>> from trackcore.trackers.smc_phd_step import smc_phd_step
+    >>> st = smc_phd_step(np.zeros((0, 4)), np.zeros(0), [[1000.0, 0.0]], model,
+    ...                   np.random.default_rng(0), n_out=200)
+    >>> st.particles.shape, round(st.cardinality, 2)
+    ((200, 4), 1.0)
+    """
     mdl = _check_model(model)
     rng = as_rng(rng)
     nx = mdl.F.shape[0]
@@ -600,7 +701,26 @@ def smc_phd_filter(particles, w, z, offsets, model: SmcPhdModel, rng, *,
     """Run :func:`smc_phd_step` over a whole run of scans in one kernel
     (identical results and draws): ``z`` ``(M, 2)`` all scans concatenated,
     ``offsets`` ``(K + 1,)`` (scan ``k`` is ``z[offsets[k]:offsets[k+1]]``).
-    Returns :class:`SmcPhdFilterRun` (``N_hat`` per scan, final particles)."""
+    Returns :class:`SmcPhdFilterRun` (``N_hat`` per scan, final particles).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.trackers.smc_phd_step import smc_phd_model
+    >>> F = np.eye(4)
+    >>> F[0, 2] = F[1, 3] = 1.0
+    >>> model = smc_phd_model(F, 0.01 * np.eye(4), np.diag([25.0, 1e-4]), pd=0.9, ps=0.99,
+    ...                       clutter_intensity=1e-3, birth_mean=[1000.0, 0.0, 0.0, 0.0],
+    ...                       birth_cov=np.diag([100.0, 100.0, 1.0, 1.0]), n_birth=200,
+    ...                       birth_rate=0.1)
+    >>> from trackcore.trackers.smc_phd_step import smc_phd_filter
+    >>> z = np.array([[1000.0, 0.0]] * 5)
+    >>> offsets = np.arange(6)
+    >>> out = smc_phd_filter(np.zeros((0, 4)), np.zeros(0), z, offsets, model,
+    ...                      np.random.default_rng(0), n_out=200)
+    >>> out.cardinality.round(2).tolist()
+    [1.0, 1.11, 1.12, 1.12, 1.12]
+    """
     mdl = _check_model(model)
     rng = as_rng(rng)
     nx = mdl.F.shape[0]
