@@ -3,6 +3,8 @@
 * it never cites our working notes ("spec");
 * no control characters in notebook or markdown sources;
 * notebook code is formatted (ruff, 88 columns) and nbval markers are cell tags;
+* notebook code cells are short (at most ``MAX_CELL_LINES`` lines: bookkeeping goes into
+  tested helpers);
 * every figure is a numbered, captioned figure; every display equation is labelled;
 * "notebook NN" is a link, not plain text;
 * in the chapter pages' tables, every "this book" cell is pasted (glue), never typed;
@@ -67,6 +69,22 @@ def test_code_lines_fit_the_column(path):
             for i, c in enumerate(load_notebook(path)["cells"]) if c["cell_type"] == "code"
             for line in cell_source(c).splitlines() if len(line) > 88]
     assert not wide, "code lines over 88 columns:\n" + "\n".join(wide)
+
+
+#: A code cell of a notebook is "a few dozen lines at most"; 45 leaves room for a cell of
+#: about 40 lines that ruff formatting lengthens by a few.
+MAX_CELL_LINES = 45
+
+
+@pytest.mark.parametrize("path", notebooks(), ids=NB_IDS)
+def test_code_cells_are_short(path):
+    long = [f"code cell {k}: {n} lines"
+            for k, n in enumerate(len(cell_source(c).splitlines())
+                                  for c in load_notebook(path)["cells"]
+                                  if c["cell_type"] == "code")
+            if n > MAX_CELL_LINES]
+    assert not long, (f"code cells over {MAX_CELL_LINES} lines (move bookkeeping into a "
+                      f"tested helper): {long}")
 
 
 def test_notebook_code_is_formatted():
