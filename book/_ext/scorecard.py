@@ -805,9 +805,11 @@ def render() -> str:
             if c.get("kind") == "erratum" and c.get("class") not in (None, "none"):
                 why = (f" Printed: {_cell(c.get('printed'))}. Corrected: "
                        f"{_cell(c.get('corrected'))}. Check: {_cell(c.get('check'))}.{why}")
+            # the explanation is folded (a reader opens it; printing opens every fold)
+            fold = f" <details><summary>why</summary>{why}</details>" if why else ""
             lines.append(f"| {_verdict_cell(e)} | {_cell(c['claim'])} "
                          f"*({_cell(c.get('where'))})* | {_cell(c.get('paper_value'))} | "
-                         f"{ours} | {link}.{why} |")
+                         f"{ours} | {link}.{fold} |")
         lines.append("")
     return "\n".join(lines)
 
