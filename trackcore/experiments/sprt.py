@@ -46,6 +46,12 @@ and the chapter's declared geometry family (index, "Readings"; issue 27):
   S1's evidence (seed + 1);
 * ``sprt-early-s1-family``: Lambda's fall over scans 1-5 minus its fall over scans 6-10
   (03-scenarios), in the six cells of S1's family, on S1's 5000 verdict runs (seed + 500).
+* ``sprt-s2-family-5k``, ``sprt-s3-family-5k``: S2 / S3 in the family's cells other than
+  G-B on 5000 runs of a stream of their own (seed + 4000 + n; declared after a review
+  found the 1000-run cells too small for an interval of the mean scan on success);
+* ``sprt-calib-s1-met``: the calibration statistics of ``sprt-calib-s1-family`` in the
+  13 cells of ``sprt-s1-geometry`` where S1 reproduces, on S1's 5000 verdict runs
+  (seed + 500; 06-sensitivity).
 """
 from __future__ import annotations
 
