@@ -46,6 +46,12 @@ and the chapter's declared geometry family (index, "Readings"; issue 27):
   S1's evidence (seed + 1);
 * ``sprt-early-s1-family``: Lambda's fall over scans 1-5 minus its fall over scans 6-10
   (03-scenarios), in the six cells of S1's family, on S1's 5000 verdict runs (seed + 500).
+* ``sprt-s2-family-5k``, ``sprt-s3-family-5k``: S2 / S3 in the family's cells other than
+  G-B on 5000 runs of a stream of their own (seed + 4000 + n; declared after a review
+  found the 1000-run cells too small for an interval of the mean scan on success);
+* ``sprt-calib-s1-met``: the calibration statistics of ``sprt-calib-s1-family`` in the
+  13 cells of ``sprt-s1-geometry`` where S1 reproduces, on S1's 5000 verdict runs
+  (seed + 500; 06-sensitivity).
 """
 from __future__ import annotations
 
@@ -582,3 +588,32 @@ register(Experiment(
                                     for a, lead in CALIB_GEOMETRIES)),
     seed=SEED + 500, runs=5000, version="1",
     notebook="book/002-sprt-acm/03-scenarios.ipynb"))
+
+
+#: The S2/S3 family at 5000 runs (declared before its runs, after a review found the
+#: 1000-run cells too small for T6): the six cells other than G-B on a new stream.
+FAMILY_5K_RUNS = 5000
+for _n in (2, 3):
+    register(Experiment(
+        name=f"sprt-s{_n}-family-5k",
+        description=(f"SPRT chapter, the declared geometry family at 5000 runs: S{_n} in "
+                     "45/0, 33.8/0, 33.8/-15, 33.8/+15, 45/-15, 45/+15 (course/lead, deg) "
+                     "on a stream of its own"),
+        trial=_cells_trial, call=_cells_call, extract=_cells_extract,
+        config=SprtCellsConfig(_n, tuple(family_cell(_n, a, lead) for a, lead in FAMILY_S23)),
+        seed=SEED + 4000 + _n, runs=FAMILY_5K_RUNS, version="1", notebook=_NB06))
+
+#: Ville's bound where S1 reproduces (declared before its runs, after a review's
+#: question): the 13 cells of sprt-s1-geometry where T1 and T2 hold.
+CALIB_MET_GEOMETRIES = ((55.0, -20.0), (55.0, -15.0), (50.0, -10.0), (55.0, -10.0),
+                        (50.0, -5.0), (55.0, -5.0), (40.0, 0.0), (45.0, 0.0), (50.0, 0.0),
+                        (45.0, 5.0), (50.0, 5.0), (50.0, 10.0), (55.0, 10.0))
+register(Experiment(
+    name="sprt-calib-s1-met",
+    description=("SPRT chapter, calibration of S1 in the 13 geometries of its sweep where "
+                 "S1 reproduces: decisions and 'ever reaches +gamma' of Lambda, its "
+                 "decoy-filter pair and its target-filter pair"),
+    trial=_calib_trial, call=_cells_call, extract=_calib_extract,
+    config=SprtCellsConfig(1, tuple(family_cell(1, a, lead)
+                                    for a, lead in CALIB_MET_GEOMETRIES)),
+    seed=SEED + 500, runs=5000, version="1", notebook=_NB06))
