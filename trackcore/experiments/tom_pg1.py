@@ -11,6 +11,11 @@ threshold, a lost track), and the longest streak of scans on which the target
 measurement's NIS exceeds the 0.99 gate's threshold (the gate-miss definition read
 without a gate).
 
+``tom-imm-houles-pg1-rep``: the same four filters and environment on 10000 runs of a
+seed no other experiment uses (20261203), a replication whose count was fixed from the
+power of the first 3000 runs before it ran; it alone decides the P_G = 1 cells of the
+chapter's failure-rate claims.
+
 ``tom-imm-houles-tuned-gates``: the jointly tuned TOM and the velocity-heading variant's
 best point of 001-05 on Table 1's runs at P_G = 0.99, 0.999 and 0.9999 (the same
 measurements as ``tom-imm-houles`` and ``tom-imm-houles-gates``, so paired with Singer,
@@ -129,6 +134,17 @@ register(Experiment(
                  "jointly tuned TOM on Table 1's seed, clutter in a 6 km square"),
     trial=houles_imm_trial, call=_call, extract=_extract,
     config=TomNoGateConfig(), seed=SEED, runs=3000, version="1",
+    notebook="book/001-tom-imm/03-houles-monte-carlo.ipynb"))
+
+#: The replication's seed: a stream no other experiment of the book uses.
+REP_SEED = 20261203
+
+register(Experiment(
+    name="tom-imm-houles-pg1-rep",
+    description=("TOM-IMM chapter, no gate (P_G = 1), a replication on a new seed: the "
+                 "four filters of tom-imm-houles-pg1, 10000 runs fixed from its power"),
+    trial=houles_imm_trial, call=_call, extract=_extract,
+    config=TomNoGateConfig(), seed=REP_SEED, runs=10000, version="1",
     notebook="book/001-tom-imm/03-houles-monte-carlo.ipynb"))
 
 
