@@ -101,7 +101,7 @@ def track_panel(ax, frame, reports, k, title, corner, trail=20):
             )
         )  # fmt: skip
         if solid:
-            ax.text(s.x + s.gate_x + 1, s.y - s.gate_y, str(s.tid), color=col, fontsize=8)
+            ax.text(s.x + s.gate_x + 1, s.y - s.gate_y, str(s.tid), color=col, fontsize=9)
     c0, r0 = min(max(corner[0], 0), 120), min(max(corner[1], 0), 140)
     ax.set_xlim(c0, c0 + 200)
     ax.set_ylim(r0 + 100, r0)
@@ -155,7 +155,7 @@ def tsi_panel(ax, prev, points, report, tracks, gate=8.0, size=95):
         v = velocity[s.tid]
         ax.annotate("", (s.x, s.y), (s.x - v[0], s.y - v[1]),
                     arrowprops={"arrowstyle": "->", "color": "C3"})
-        ax.text(s.x + 2, s.y - 3, f"{s.tid}: {s.status}", color="C3", fontsize=7)
+        ax.text(s.x + 2, s.y - 3, f"{s.tid}: {s.status}", color="C3", fontsize=9)
     ax.set_xlabel("x (px)")
     ax.set_xlim(0, size)
     ax.set_ylim(size, 0)
@@ -184,8 +184,8 @@ def state_diagram(ax, nodes, edges, note, alert=("deleted",)):
                  "shrinkA": 28, "shrinkB": 28}
         ax.annotate("", (x1, y1 + dy), (x0, y0 + dy), arrowprops=arrow)
         ax.text((x0 + x1) / 2, (y0 + y1) / 2 + dy + 0.07 * np.sign(rad or 1), label,
-                ha="center", fontsize=8)
-    ax.text(0.5, 0.25, note, ha="center", fontsize=8)
+                ha="center", fontsize=9)
+    ax.text(0.5, 0.25, note, ha="center", fontsize=9)
     ax.set_xlim(0, 1)
     ax.set_ylim(0, 0.8)
     ax.axis("off")

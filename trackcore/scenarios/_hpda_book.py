@@ -95,7 +95,7 @@ def flow_chart(steps, loop_from=1, loop_label="next scan"):
                                  fc="#e8eff8", ec="#2b4c6f", lw=0.9)
             ax.add_patch(box)
             ax.text(x, -i, "\n".join(textwrap.wrap(text, int(w * 9.2))), ha="center",
-                    va="center", fontsize=8.5, linespacing=1.15)
+                    va="center", fontsize=9, linespacing=1.15)
         centres.append(xs)
     arrow = {"arrowstyle": "-|>", "color": "#2b4c6f", "lw": 0.9, "shrinkA": 0, "shrinkB": 0}
     for i in range(len(rows) - 1):
@@ -110,7 +110,7 @@ def flow_chart(steps, loop_from=1, loop_label="next scan"):
     ax.plot([right + 0.05, 9.35, 9.35], [y0, y0, y1], color="#9b2d2d", lw=0.9)
     ax.annotate("", xy=(right + 0.05, y1), xytext=(9.35, y1), arrowprops=back)
     ax.text(9.6, (y0 + y1) / 2, loop_label, rotation=90, ha="center", va="center",
-            fontsize=8.5, color="#9b2d2d")
+            fontsize=9, color="#9b2d2d")
     return fig
 
 

@@ -157,7 +157,7 @@ def annotated_heatmap(ax, val, xs, ys, *, cmap, vrange, fmt, dark, half=(2.5, 2.
     for i, y in enumerate(ys):
         for j, x in enumerate(xs):
             v = val[i, j]
-            ax.text(x, y, fmt.format(v), ha="center", va="center", fontsize=6,
+            ax.text(x, y, fmt.format(v), ha="center", va="center", fontsize=8.5,
                     color="w" if dark(v) else "k")
     ax.grid(False)
     return im

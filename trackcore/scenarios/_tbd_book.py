@@ -154,8 +154,8 @@ def sweep_figure(stats, counts, radii):
             a.axvline(600, color="0.6", ls=":", lw=1)
     axes[0, 0].set_ylabel("$E_{err,avg}$, whole run (m)")
     axes[1, 0].set_ylabel("fraction of runs lost")
-    axes[0, 0].legend(fontsize=8, loc="upper right")
-    axes[1, 0].legend(fontsize=8, loc="upper right")
+    axes[0, 0].legend(fontsize=9, loc="upper right")
+    axes[1, 0].legend(fontsize=9, loc="upper right")
     fig.tight_layout()
     return fig
 

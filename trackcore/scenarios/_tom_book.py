@@ -433,7 +433,7 @@ def plot_one_at_a_time(sweep, params, windows, singer_fail, width):
             ax.set_xlabel(label)
     handles, labs = axes[0, 0].get_legend_handles_labels()
     h2, l2 = axes[0, 1].get_legend_handles_labels()
-    fig.legend(handles + h2, labs + l2, loc="upper center", ncols=3, fontsize=8)
+    fig.legend(handles + h2, labs + l2, loc="upper center", ncols=3, fontsize=9)
     plt.tight_layout(rect=(0, 0, 1, 0.95))
     return fig
 
@@ -482,5 +482,6 @@ def plot_tuning_grid(scores, grids, marked, singer_fail, width):
     ax.set_xlabel("TOM failure rate on the 200 grid seeds (%)")
     ax.set_ylabel("TOM total RMSE, % of Singer\n(runs neither failed)")
     ax.set_ylim(76, None)
-    ax.legend(loc="lower right", fontsize=7, ncols=2)
+    # below the axes: at a readable size the legend is wider than the data's empty corner
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), fontsize=9, ncols=2)
     return fig
