@@ -3,6 +3,7 @@
 * it never cites our working notes ("spec");
 * no control characters in notebook or markdown sources;
 * notebook code is formatted (ruff, 88 columns) and nbval markers are cell tags;
+* no figure text under 9 pt as rendered (``fontsize`` at least ``MIN_FONTSIZE``);
 * notebook code cells are short (at most ``MAX_CELL_LINES`` lines: bookkeeping goes into
   tested helpers);
 * every figure is a numbered, captioned figure; every display equation is labelled;
@@ -85,6 +86,21 @@ def test_code_cells_are_short(path):
             if n > MAX_CELL_LINES]
     assert not long, (f"code cells over {MAX_CELL_LINES} lines (move bookkeeping into a "
                       f"tested helper): {long}")
+
+
+#: A full-width figure (7.5 in at 150 dpi) renders in the 756 px text column at 0.68 of its
+#: pixels, so a font of f pt shows at about 1.06 f pt: 8.5 pt is the least that reads as 9.
+MIN_FONTSIZE = 8.5
+_FONTSIZE = re.compile(r"fontsize\s*=\s*(\d+(?:\.\d+)?)\b")
+
+
+def test_figure_text_is_readable():
+    sources = [(rel(p), "\n".join(cell_source(c) for c in load_notebook(p)["cells"]
+                                  if c["cell_type"] == "code")) for p in notebooks()]
+    sources += [(rel(p), p.read_text()) for p in sorted((ROOT / "trackcore").rglob("*.py"))]
+    small = [f"{name}: fontsize={m.group(1)}" for name, text in sources
+             for m in _FONTSIZE.finditer(text) if float(m.group(1)) < MIN_FONTSIZE]
+    assert not small, f"figure text under {MIN_FONTSIZE} pt: {small}"
 
 
 def test_notebook_code_is_formatted():
