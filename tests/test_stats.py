@@ -395,3 +395,27 @@ def test_spread_at_rounding_level_is_no_spread():
     x = np.r_[np.full(24, 0.1 + 0.2), np.full(23, 0.3), [0.2, 0.25, 0.28]]
     with pytest.raises(ValueError, match="too few distinct values"):
         mean_ci(x)
+
+
+def test_studentized_intervals_stay_within_what_the_runs_can_give():
+    """One dominant run: the bootstrap-t ends would fall outside the runs' range; they are
+    cut to it (a mean within [min, max], a ratio of positive runs within the per-run ratios)
+    and the method says so. Ordinary runs are untouched."""
+    rng = np.random.default_rng(5)
+    x, y = rng.gamma(4.0, 25.0, size=60), rng.gamma(4.0, 25.0, size=60)
+    x[7] = 13000.0  # one diverged run
+    e = mean_ci(x)
+    assert x.min() <= e.lo < e.value < e.hi <= x.max(), e
+    assert e.lo == x.min() and e.method.endswith("range-limited"), e
+    d = paired_diff_ci(x, y)
+    assert (x - y).min() <= d.lo and d.hi <= (x - y).max(), d
+    for paired in (True, False):
+        r = ratio_ci(x, y, paired=paired)
+        assert r.lo > 0.0 and r.method.endswith("range-limited"), r
+        q = x / y if paired else np.array([a / b for a in (x.min(), x.max())
+                                           for b in (y.min(), y.max())])
+        assert q.min() <= r.lo and r.hi <= q.max(), r
+    r = ratio_ci(y, x)
+    assert (y / x).min() <= r.lo and r.hi <= (y / x).max(), r
+    ok = mean_ci(rng.normal(1.0, 0.1, size=60))
+    assert "range-limited" not in ok.method, ok

@@ -31,7 +31,11 @@ Bernoulli(0.05) runs (pairs: correlated draws of each family).
   (bootstrap-t; :cite:t:`efron1993bootstrap`, ch. 12), taken as the hull of its
   equal-tailed and symmetric forms, for means below ``BCA_RUNS`` runs and for every
   difference and ratio; the bias-corrected and accelerated (BCa) bootstrap (ch. 14) for
-  means from ``BCA_RUNS`` runs on, where it reaches 93 % too.
+  means from ``BCA_RUNS`` runs on, where it reaches 93 % too.  A studentized interval never
+  reaches past what the statistic can be on a resample of the runs (a mean stays within the
+  runs' smallest and largest values, a ratio of positive-denominator runs within their
+  per-run ratios): with one dominant run the bootstrap-t ends can otherwise land far outside
+  anything the runs could give.  Such an interval's method ends in "range-limited".
 * runs that are all equal (or a difference or ratio that is the same in every run) have
   no interval: a ValueError, never a zero-width interval, so :func:`compare` never calls
   a degenerate interval a tie.  Runs nearly all equal (too many resamples without spread,
@@ -350,13 +354,19 @@ def _order_stat(sorted_t, k):
     return float(sorted_t[min(max(k, 1), sorted_t.size) - 1])
 
 
-def _studentized(theta, se, t, level, n, method):
+def _studentized(theta, se, t, level, n, method, bounds):
     """Studentized (bootstrap-t) interval from replicates ``t = (theta* - theta) / se*``.
 
     The hull of the equal-tailed interval ``(theta - t_hi se, theta - t_lo se)`` and the
     symmetric one ``theta -/+ |t|_level se``: the equal-tailed one follows a real skew, the
     symmetric one guards against a skew that is only noise in a small sample; the hull
-    covers whenever either does.  ``t`` may hold +-inf (a resample with no spread)."""
+    covers whenever either does.  ``t`` may hold +-inf (a resample with no spread).
+
+    ``bounds = (lo, hi)`` is the range the statistic can take on any resample of these runs
+    (``None`` for a side without one); the interval is cut to it.  When one run dominates,
+    resamples without it have a tiny ``se*`` and a huge ``t``, and the bootstrap-t ends can
+    land far outside anything the runs could produce (a ratio of positive errors with a
+    negative lower end); no such end is kept.  The method then says "range-limited"."""
     t = t[~np.isnan(t)]
     if t.size < 100:
         raise ValueError("too few usable bootstrap replicates for a studentized interval")
@@ -373,6 +383,13 @@ def _studentized(theta, se, t, level, n, method):
         raise ValueError(
             f"the runs have too few distinct values for a studentized interval at n = {n} "
             "(too many resamples have no spread); use more runs, or rate_ci for 0/1 outcomes")
+    cut = False
+    if bounds[0] is not None and lo < bounds[0]:
+        lo, cut = bounds[0], True
+    if bounds[1] is not None and hi > bounds[1]:
+        hi, cut = bounds[1], True
+    if cut:
+        method += ", range-limited"
     return Estimate(float(theta), min(float(lo), float(theta)), max(float(hi), float(theta)),
                     level, n, method)
 
@@ -393,7 +410,7 @@ def _student_mean(v, level, n_boot, seed, method):
         with np.errstate(divide="ignore", invalid="ignore"):
             t[done:done + b] = (r.mean(axis=1) - m) / (sb / math.sqrt(n))
         done += b
-    return _studentized(m, se, t, level, n, method)
+    return _studentized(m, se, t, level, n, method, (float(v.min()), float(v.max())))
 
 
 def _ratio_se(x, y, r, paired):
@@ -431,7 +448,20 @@ def _student_ratio(x, y, paired, level, n_boot, seed, n, method):
         with np.errstate(divide="ignore", invalid="ignore"):
             t[done:done + b] = (rb - r) / seb
         done += b
-    return _studentized(r, se, t, level, n, method)
+    return _studentized(r, se, t, level, n, method, _ratio_bounds(x, y, paired))
+
+
+def _ratio_bounds(x, y, paired):
+    """The range of ``mean(x) / mean(y)`` over every resample, when ``y > 0`` in every run:
+    paired, a weighted mean of the per-run ratios ``x_i / y_i`` (weights ``y_i``); unpaired,
+    between the corner ratios of the two samples' ranges.  ``(None, None)`` otherwise."""
+    if not np.all(y > 0):
+        return (None, None)
+    if paired:
+        q = x / y
+        return (float(q.min()), float(q.max()))
+    corners = [a / b for a in (x.min(), x.max()) for b in (y.min(), y.max())]
+    return (float(min(corners)), float(max(corners)))
 
 
 _REL_TOL = 1e-9  # resample spreads below this, relative to the values, are rounding noise
