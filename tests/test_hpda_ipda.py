@@ -134,7 +134,8 @@ def test_single_measurement_pda_equals_pda_update():
         z[1] = wrap_angle(z[1])
         beta = rng.uniform()
         xo, Po = np.zeros(4), np.zeros((4, 4))
-        _pda1_update(x, P, z, zh, H, R, beta, xo, Po, np.zeros((4, 2)), np.zeros((4, 4)))
+        _pda1_update(x, P, z, zh, H, R, beta, xo, Po, np.zeros((4, 2)), np.zeros((4, 4)),
+                     np.zeros((4, 4)))
         ref = pda_update(x, P, z[None], zh, H, R, np.array([beta]), 1 - beta, angle_index=1)
         np.testing.assert_allclose(xo, ref.x, rtol=1e-12, atol=1e-9)
         np.testing.assert_allclose(Po, ref.P, rtol=1e-10, atol=1e-9 * np.abs(ref.P).max())
@@ -157,7 +158,8 @@ def test_bearing_window_gate_equals_brute_force():
         border = np.argsort(Z[:, 1])
         bs = np.ascontiguousarray(Z[border, 1])
         buf = [np.zeros(max(m, 1), np.int64)] + [np.zeros(max(m, 1)) for _ in range(4)]
-        out = _gate_and_select(Z, A, border, bs, zh, S, 9.21, 0.9, 0.99, 1 / 11, 1e-7, 0, *buf)
+        out = _gate_and_select(Z, A, border, bs, zh, S, 9.21, 0.9, 0.99, 1 / 11, 1e-7, 0, *buf,
+                               np.full(m + 1, -1.0))
         nu = Z - zh
         nu[:, 1] = wrap_angle(nu[:, 1])
         d2 = np.einsum("ij,jk,ik->i", nu, np.linalg.inv(S), nu)

@@ -149,12 +149,19 @@ def hpda_conditional_rank_kernel(m, c, pdpg, clutter_mean, pt, pf):
     """
     if m == 0:
         return True
+    return _conditional_rank_from_q1(m, math.exp(_log_q(1.0, float(m), c)), c, pdpg,
+                                     clutter_mean, pt, pf)
+
+
+@nb.njit(cache=True)
+def _conditional_rank_from_q1(m, q, c, pdpg, clutter_mean, pt, pf):
+    """:func:`hpda_conditional_rank_kernel` for ``m >= 1`` given ``q = q_1 =
+    exp(log q(1, m))`` (a caller that sees the same ``m`` and ``c`` often keeps it)."""
     if clutter_mean == 0.0 and m >= 2:
         return False
     den = (1.0 - pdpg) * clutter_mean + pdpg * m
     if den <= 0.0:
         return False
-    q = math.exp(_log_q(1.0, float(m), c))
     for l in range(1, m + 1):
         pt[l - 1] = pdpg * m * q / den
         pf[l - 1] = ((1.0 - pdpg) * clutter_mean + pdpg * m * (1.0 - q)) / den
@@ -196,20 +203,29 @@ def hpda_mixture_loglik_kernel(particles, z, Rinv, logdetR, sx, sy, log_pt, log_
     for i in range(particles.shape[0]):
         dx = particles[i, 0] - sx
         dy = particles[i, 1] - sy
-        r0 = z[0] - math.sqrt(dx * dx + dy * dy)
-        r1 = wrap_angle_kernel(z[1] - math.atan2(dy, dx))
-        ll = c - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
-                        + Rinv[1, 1] * r1 * r1)
-        if math.isnan(ll):
-            # an infinite innovation (a particle or sensor beyond double range; inputs are
-            # finite) times a zero cross term: the Gaussian term is 0
-            ll = -np.inf
-        u = ll + log_pt
-        hi = max(u, log_pf_vg)
-        if hi == -np.inf:
-            out[i] = -np.inf
-        else:
-            out[i] = hi + math.log(math.exp(u - hi) + math.exp(log_pf_vg - hi))
+        out[i] = _mixture_loglik_polar(math.sqrt(dx * dx + dy * dy), math.atan2(dy, dx), z,
+                                       Rinv, c, log_pt, log_pf_vg)
+
+
+@nb.njit(cache=True)
+def _mixture_loglik_polar(rng_i, brg_i, z, Rinv, c, log_pt, log_pf_vg):
+    """One particle's term of :func:`hpda_mixture_loglik_kernel` from its range
+    ``rng_i`` and bearing ``brg_i`` (``c = -log(2 pi) - log|R| / 2``)."""
+    r0 = z[0] - rng_i
+    r1 = wrap_angle_kernel(z[1] - brg_i)
+    ll = c - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
+                    + Rinv[1, 1] * r1 * r1)
+    if math.isnan(ll):
+        # an infinite innovation (a particle or sensor beyond double range; inputs are
+        # finite) times a zero cross term: the Gaussian term is 0
+        ll = -np.inf
+    u = ll + log_pt
+    hi = max(u, log_pf_vg)
+    if hi == -np.inf:
+        return -np.inf
+    # log(exp(u - hi) + exp(log_pf_vg - hi)): the larger term is exp(0) = 1 exactly
+    lo = u if hi == log_pf_vg else log_pf_vg
+    return hi + math.log(1.0 + math.exp(lo - hi))
 
 
 # --------------------------------------------------------------------------

@@ -502,14 +502,27 @@ def jpda_marginals(lik, valid, pd, lam, rho=None, mode="parametric", V=None,
         logV = math.log(V)
     else:
         logV = 0.0
+    rho_arr = None
     if rho is not None:
         valid = feature_validation(valid, rho, c_I)
         rho_arr = as_array(rho, "rho", shape=(m, T))
+    return _jpda_marginals_checked(lik, valid, pd_arr, lam, rho_arr,
+                                   mode == "nonparametric", logV, method)
+
+
+def _jpda_marginals_checked(lik, valid, pd_arr, lam, rho_arr, nonparametric, logV, method):
+    """:func:`jpda_marginals` after its checks: ``lik`` (m, T) float, ``valid`` (m, T)
+    bool (already feature-validated when ``rho_arr`` is given), ``pd_arr`` (T,) float,
+    ``lam`` > 0 (1.0 when nonparametric without one), ``rho_arr`` (m, T) float or None,
+    ``logV`` (0.0 when parametric), ``method`` one of "auto", "enumerate", "net".  For
+    callers whose inputs are valid by construction (a tracker's inner loop)."""
+    m, T = valid.shape
+    rho = rho_arr
+    mode = "nonparametric" if nonparametric else "parametric"
     if m == 0:
         beta = np.zeros((m + 1, T))
         beta[0, :] = 1.0
         return beta, 1
-    nonparametric = mode == "nonparametric"
     if method == "auto":
         method = "enumerate" if _product_at_most(valid, ENUMERATE_MAX_PRODUCT) else "net"
     if method == "net":
@@ -697,7 +710,11 @@ def jpda_clusters(valid):
     [0, 1] [0, 1]
     [2] [2]
     """
-    valid = _check_valid(valid)
+    return _clusters(_check_valid(valid))
+
+
+def _clusters(valid):
+    """:func:`jpda_clusters` of a checked (m, T) boolean ``valid``."""
     m, T = valid.shape
     parent = np.arange(m + T)
 

@@ -39,7 +39,7 @@ from ..core.validation import (as_array, as_covariance, as_int, as_matrix, as_me
                                as_nonnegative, as_positive, as_probability, as_scalar, as_vector,
                                finite_result)
 from ..filters._fastcheck import check_result_cov
-from ..filters.kalman import kf_update_kernel
+from ..filters.kalman import _kf_update_work, _update_scratch
 from ..models.measurement import wrap_angle_kernel
 
 __all__ = [
@@ -239,9 +239,28 @@ def pda_update_kernel(x_pred, P_pred, z, z_pred, H, R, betas, beta0, angle_index
     """
     n = x_pred.shape[0]
     m, d = z.shape
+    return _pda_update_work(x_pred, P_pred, z, z_pred, H, R, betas, beta0, angle_index, x_out,
+                            P_out, nu_out, S_out, K_out, _pda_scratch(n, d, m))
+
+
+@nb.njit(cache=True)
+def _pda_scratch(n, d, m_max):
+    """Work arrays of :func:`_pda_update_work` for state size ``n``, measurement size
+    ``d`` and up to ``m_max`` measurements."""
+    return ((np.empty((m_max, d)), np.empty(d), np.empty((n, n)), np.empty(d),
+             np.empty((d, d)), np.empty((n, d))) + _update_scratch(n, d))
+
+
+@nb.njit(cache=True)
+def _pda_update_work(x_pred, P_pred, z, z_pred, H, R, betas, beta0, angle_index, x_out,
+                     P_out, nu_out, S_out, K_out, work):
+    """:func:`pda_update_kernel` with its work arrays ``work`` (from
+    :func:`_pda_scratch`), for callers in a loop."""
+    nus, zc, Pc, innov, D, KD, PHt, W, RKt, L, A, y = work
+    n = x_pred.shape[0]
+    m, d = z.shape
     for a in range(d):
         nu_out[a] = 0.0
-    nus = np.empty((m, d))
     for j in range(m):
         for a in range(d):
             r = z[j, a] - z_pred[a]
@@ -251,15 +270,13 @@ def pda_update_kernel(x_pred, P_pred, z, z_pred, H, R, betas, beta0, angle_index
             nu_out[a] += betas[j] * r
     # K, S and the Joseph-form P_c from the Kalman kernel: feed it a
     # measurement whose innovation is the combined one
-    zc = np.empty(d)
     for a in range(d):
         s = nu_out[a]
         for b in range(n):
             s += H[a, b] * x_pred[b]
         zc[a] = s
-    Pc = np.empty((n, n))
-    innov = np.empty(d)
-    _, _, ok = kf_update_kernel(x_pred, P_pred, zc, H, R, x_out, Pc, innov, S_out, K_out)
+    _, _, ok = _kf_update_work(x_pred, P_pred, zc, H, R, x_out, Pc, innov, S_out, K_out,
+                               PHt, W, RKt, L, A, y)
     if not ok:
         return False
     if m == 0:
@@ -269,14 +286,12 @@ def pda_update_kernel(x_pred, P_pred, z, z_pred, H, R, betas, beta0, angle_index
                 P_out[i, k] = P_pred[i, k]
         return True
     # spread D = sum_j beta_j nu_j nu_j^T - nu nu^T
-    D = np.empty((d, d))
     for a in range(d):
         for b in range(d):
             s = -nu_out[a] * nu_out[b]
             for j in range(m):
                 s += betas[j] * nus[j, a] * nus[j, b]
             D[a, b] = s
-    KD = np.empty((n, d))
     for i in range(n):
         for b in range(d):
             s = 0.0

@@ -797,13 +797,36 @@ def _sliding_kernel(A, B, s):
     for i in range(ha):
         for j in range(wa):
             saa += (A[i, j] - ma) ** 2
+    # the template zero-meaned once (the same numbers as A[i, j] - ma in the loop)
+    ac = np.empty((ha, wa))
+    for i in range(ha):
+        for j in range(wa):
+            ac[i, j] = A[i, j] - ma
+    # a canvas of zeros and ones (a mask) has exact window sums in any order: take them
+    # from a summed-area table; a constant window (sum 0 or n) scores 0 and is skipped
+    whole = True
+    for i in range(H):
+        for j in range(W):
+            if cb[i, j] != 0.0 and cb[i, j] != 1.0:
+                whole = False
+    sat = np.zeros((H + 1, W + 1))
+    if whole:
+        for i in range(H):
+            for j in range(W):
+                sat[i + 1, j + 1] = cb[i, j] + sat[i, j + 1] + sat[i + 1, j] - sat[i, j]
     best = 0.0
     for r0 in range(H - ha + 1):
         for c0 in range(W - wa + 1):
-            sw = 0.0
-            for i in range(ha):
-                for j in range(wa):
-                    sw += cb[r0 + i, c0 + j]
+            if whole:
+                sw = (sat[r0 + ha, c0 + wa] - sat[r0, c0 + wa] - sat[r0 + ha, c0]
+                      + sat[r0, c0])
+                if sw == 0.0 or sw == n:
+                    continue
+            else:
+                sw = 0.0
+                for i in range(ha):
+                    for j in range(wa):
+                        sw += cb[r0 + i, c0 + j]
             mw = sw / n
             sww = 0.0
             sab = 0.0
@@ -811,7 +834,7 @@ def _sliding_kernel(A, B, s):
                 for j in range(wa):
                     d = cb[r0 + i, c0 + j] - mw
                     sww += d * d
-                    sab += (A[i, j] - ma) * d
+                    sab += ac[i, j] * d
             den = math.sqrt(saa * sww)
             if den > 0:
                 r = sab / den

@@ -276,6 +276,14 @@ def kf_update_kernel(x, P, z, H, R, x_out, P_out, innov, S, K):
     ``innov`` (m,), ``S`` (m, m), ``K`` (n, m) are outputs too.  Returns
     ``(nis, loglik, ok)``; ``ok`` is False when ``S`` is not positive definite.
     """
+    PHt, W, RKt, L, A, y = _update_scratch(x.shape[0], z.shape[0])
+    return _kf_update_work(x, P, z, H, R, x_out, P_out, innov, S, K, PHt, W, RKt, L, A, y)
+
+
+@nb.njit(cache=True)
+def _kf_update_work(x, P, z, H, R, x_out, P_out, innov, S, K, PHt, W, RKt, L, A, y):
+    """:func:`kf_update_kernel` with its work arrays given (those of
+    ``_update_scratch(n, m)``), for callers in a loop."""
     n = x.shape[0]
     m = z.shape[0]
     for i in range(m):
@@ -283,7 +291,6 @@ def kf_update_kernel(x, P, z, H, R, x_out, P_out, innov, S, K):
         for k in range(n):
             s -= H[i, k] * x[k]
         innov[i] = s
-    PHt, W, RKt, L, A, y = _update_scratch(n, m)
     return _update_into(x, P, innov, H, R, x_out, P_out, S, K, PHt, W, RKt, L, A, y)
 
 

@@ -41,9 +41,9 @@ import numpy as np
 
 from ..association.existence import ipda_existence_kernel, nn_existence_kernel
 from ..association.gating import gate_threshold
-from ..association.hpda import (hpda_conditional_rank_kernel, hpda_existence_delta_kernel,
-                                hpda_mixture_loglik_kernel)
-from ..association.pda import pda_update_kernel
+from ..association.hpda import (_conditional_rank_from_q1, _log_q, _mixture_loglik_polar,
+                                hpda_existence_delta_kernel)
+from ..association.pda import _pda_scratch, _pda_update_work
 from ..filters.particle import systematic_indices_kernel
 from ..core.validation import as_array, as_offsets, as_rng, as_scalar
 from ..models.measurement import (range_bearing_jacobian_kernel, range_bearing_kernel,
@@ -383,12 +383,24 @@ def _particle_moments(X, zhat, S, R):
     """Predicted measurement mean and covariance of equally weighted
     particles (bearing averaged about the first particle's bearing)."""
     N = X.shape[0]
+    _particle_moments_polar(X, zhat, S, R, np.empty(N), np.empty(N), np.empty(N))
+
+
+@nb.njit(cache=True)
+def _particle_moments_polar(X, zhat, S, R, rng_, brg, rel):
+    """:func:`_particle_moments` that also leaves each particle's range in ``rng_``, its
+    bearing in ``brg`` (for the weights of the same particles) and the bearing relative
+    to the first particle's in ``rel`` (work arrays of length ``N``)."""
+    N = X.shape[0]
     ref = math.atan2(X[0, 1], X[0, 0])
     sr = 0.0
     sb = 0.0
     for i in range(N):
-        sr += math.sqrt(X[i, 0] * X[i, 0] + X[i, 1] * X[i, 1])
-        sb += wrap_angle_kernel(math.atan2(X[i, 1], X[i, 0]) - ref)
+        rng_[i] = math.sqrt(X[i, 0] * X[i, 0] + X[i, 1] * X[i, 1])
+        brg[i] = math.atan2(X[i, 1], X[i, 0])
+        rel[i] = wrap_angle_kernel(brg[i] - ref)
+        sr += rng_[i]
+        sb += rel[i]
     mr = sr / N
     mb = sb / N
     zhat[0] = mr
@@ -397,8 +409,8 @@ def _particle_moments(X, zhat, S, R):
     c01 = 0.0
     c11 = 0.0
     for i in range(N):
-        dr = math.sqrt(X[i, 0] * X[i, 0] + X[i, 1] * X[i, 1]) - mr
-        db = wrap_angle_kernel(math.atan2(X[i, 1], X[i, 0]) - ref) - mb
+        dr = rng_[i] - mr
+        db = rel[i] - mb
         c00 += dr * dr
         c01 += dr * db
         c11 += db * db
@@ -418,11 +430,15 @@ def _bearing_window(bsorted, lo, hi):
 
 @nb.njit(cache=True)
 def _gate_and_select(Zs, As, border, bsorted, zhat, S, g2, pd, pg, c, lam_xy, rule,
-                     vidx, d2buf, ndens, pt, pf):
+                     vidx, d2buf, ndens, pt, pf, q1cache):
     """Gate the scan, rank the validated returns by amplitude and select one.
 
     ``border`` is the scan's order by bearing and ``bsorted`` the sorted bearings: only
-    returns within the gate's bearing extent ``sqrt(g^2 S_11)`` (wrapped) are tested.
+    returns within the gate's bearing extent ``sqrt(g^2 S_11)`` (wrapped) are tested,
+    and of these only those within its range extent ``sqrt(g^2 S_00)`` (widened by a
+    relative 1e-6) get their distance computed.  ``q1cache[m]`` holds ``q_1`` of the
+    rank probabilities for ``m`` returns once computed (-1 before; ``c`` must be the same
+    in every call with the same cache).
     Returns ``(m, s_idx, beta_s, delta, pt_s, pf_s, V_G, s_used, s_hpda, s_nn)``:
     ``s_idx`` is the scan index of ``z^s`` (-1 if m = 0), the last three are ranks
     (0 = strongest) chosen by the rule in use, by eq (15) and by the nearest
@@ -434,6 +450,8 @@ def _gate_and_select(Zs, As, border, bsorted, zhat, S, g2, pd, pg, c, lam_xy, ru
     sq = math.sqrt(det)
     VG = math.pi * g2 * sq
     hw = math.sqrt(g2 * S[1, 1]) * (1.0 + 1e-9) + 1e-12
+    # d^2 >= n0^2 / S_00 for every bearing innovation: the range extent of the gate
+    rw2 = g2 * S[0, 0] * (1.0 + 1e-6)
     m = 0
     n_win = 1
     lo0, hi0, lo1, hi1 = zhat[1] - hw, zhat[1] + hw, 1.0, 0.0
@@ -453,6 +471,8 @@ def _gate_and_select(Zs, As, border, bsorted, zhat, S, g2, pd, pg, c, lam_xy, ru
         for q in range(i0, i1):
             j = border[q]
             n0 = Zs[j, 0] - zhat[0]
+            if n0 * n0 > rw2:
+                continue
             n1 = wrap_angle_kernel(Zs[j, 1] - zhat[1])
             d2 = i00 * n0 * n0 + 2.0 * i01 * n0 * n1 + i11 * n1 * n1
             if d2 <= g2:
@@ -472,7 +492,11 @@ def _gate_and_select(Zs, As, border, bsorted, zhat, S, g2, pd, pg, c, lam_xy, ru
     if m == 0:
         return 0, -1, 0.0, pdpg, 0.0, 0.0, VG, -1, -1, -1
     clutter_mean = lam_z * VG
-    hpda_conditional_rank_kernel(m, c, pdpg, clutter_mean, pt, pf)
+    q1 = q1cache[m]
+    if q1 < 0.0:
+        q1 = math.exp(_log_q(1.0, float(m), c))
+        q1cache[m] = q1
+    _conditional_rank_from_q1(m, q1, c, pdpg, clutter_mean, pt, pf)
     best = -1.0
     s_h = 0
     for l in range(m):
@@ -563,11 +587,14 @@ def _resample_log_weights(X, modes, logw, scratch, mscratch, idx, rng):
 
 
 @nb.njit(cache=True)
-def _weight_resample(X, modes, z, Rinv, logdetR, log_pt, log_pf_vg, logw, scratch, mscratch,
-                     idx, rng):
-    """Eq (13) weights for ``z^s`` (``hpda_mixture_loglik_kernel``),
-    then systematic resampling in place (one ``rng.random()``)."""
-    hpda_mixture_loglik_kernel(X, z, Rinv, logdetR, 0.0, 0.0, log_pt, log_pf_vg, logw)
+def _weight_resample(X, modes, rng_, brg, z, Rinv, logdetR, log_pt, log_pf_vg, logw, scratch,
+                     mscratch, idx, rng):
+    """Eq (13) weights for ``z^s`` (``hpda_mixture_loglik_kernel``'s, from the particles'
+    ranges ``rng_`` and bearings ``brg`` seen from the origin), then systematic
+    resampling in place (one ``rng.random()``)."""
+    c0 = -1.8378770664093453 - 0.5 * logdetR
+    for i in range(X.shape[0]):
+        logw[i] = _mixture_loglik_polar(rng_[i], brg[i], z, Rinv, c0, log_pt, log_pf_vg)
     _resample_log_weights(X, modes, logw, scratch, mscratch, idx, rng)
 
 
@@ -582,31 +609,34 @@ def _ipda_log_term(Zs, j, rr, bb, Rinv, shift):
 
 
 @nb.njit(cache=True)
-def _ipda_weight_resample(X, modes, Zs, vidx, m, Rinv, logdetR, log_pd, log_clutter, logw,
-                          scratch, mscratch, idx, rng):
+def _ipda_weight_resample(X, modes, rng_, brg, Zs, vidx, m, Rinv, logdetR, log_pd,
+                          log_clutter, logw, terms, scratch, mscratch, idx, rng):
     """IPDA's particle weights ``lambda (1 - P_D P_G) + P_D sum_j N(z_j; h(x_i), R)``
     over the ``m`` gated returns ``Zs[vidx[:m]]`` (``log_clutter`` the log of the first
-    term), then systematic resampling in place (one ``rng.random()``)."""
+    term; ``rng_``, ``brg`` the particles' ranges and bearings, ``terms`` a work array
+    of length >= m), then systematic resampling in place (one ``rng.random()``)."""
     N = X.shape[0]
     c0 = -1.8378770664093453 - 0.5 * logdetR
     for i in range(N):
-        rr = math.sqrt(X[i, 0] * X[i, 0] + X[i, 1] * X[i, 1])
-        bb = math.atan2(X[i, 1], X[i, 0])
+        rr = rng_[i]
+        bb = brg[i]
         hi = log_clutter
         for q in range(m):
-            hi = max(hi, _ipda_log_term(Zs, vidx[q], rr, bb, Rinv, log_pd + c0))
+            terms[q] = _ipda_log_term(Zs, vidx[q], rr, bb, Rinv, log_pd + c0)
+            hi = max(hi, terms[q])
         acc = math.exp(log_clutter - hi)
         for q in range(m):
-            acc += math.exp(_ipda_log_term(Zs, vidx[q], rr, bb, Rinv, log_pd + c0) - hi)
+            acc += math.exp(terms[q] - hi)
         logw[i] = hi + math.log(acc)
     _resample_log_weights(X, modes, logw, scratch, mscratch, idx, rng)
 
 
 @nb.njit(cache=True)
 def _ipda_ekf_update(x, P, Zs, vidx, m, zhat, H, R, pd, pdpg, lam_z, ndens, zg, bet,
-                     x_out, P_out):
+                     x_out, P_out, nu, S, K, work):
     """PDA update of a tentative track's EKF with every gated return (IPDA's weights
-    ``beta_j = P_D N_j / (lambda L)``, ``beta_0 = (1 - P_D P_G) / L``)."""
+    ``beta_j = P_D N_j / (lambda L)``, ``beta_0 = (1 - P_D P_G) / L``; ``nu`` (2,),
+    ``S`` (2, 2), ``K`` (4, 2) and ``work`` (``_pda_scratch(4, 2, m)``) work arrays)."""
     tot = 1.0 - pdpg
     for q in range(m):
         bet[q] = pd * ndens[q] / lam_z
@@ -616,11 +646,8 @@ def _ipda_ekf_update(x, P, Zs, vidx, m, zhat, H, R, pd, pdpg, lam_z, ndens, zg, 
         zg[q, 1] = Zs[j, 1]
     for q in range(m):
         bet[q] /= tot
-    nu = np.empty(2)
-    S = np.empty((2, 2))
-    K = np.empty((4, 2))
-    pda_update_kernel(x, P, zg[:m], zhat, H, R, bet[:m], (1.0 - pdpg) / tot, 1, x_out,
-                      P_out, nu, S, K)
+    _pda_update_work(x, P, zg[:m], zhat, H, R, bet[:m], (1.0 - pdpg) / tot, 1, x_out,
+                     P_out, nu, S, K, work)
 
 
 @nb.njit(cache=True)
@@ -685,13 +712,13 @@ def _cv_predict(x, P, T, Q, x_out, P_out):
 
 
 @nb.njit(cache=True)
-def _pda1_update(x, P, z, zhat, H, R, beta, x_out, P_out, K, A):
+def _pda1_update(x, P, z, zhat, H, R, beta, x_out, P_out, K, A, W):
     """PDA update of an EKF (state (4,), measurement (2,)) with one validated
     measurement ``z`` of association probability ``beta`` (``beta_0 = 1 - beta``):
     ``x + K beta nu`` and ``beta_0 P + beta P_c + K beta (1 - beta) nu nu^T K^T``,
     ``P_c`` the Joseph-form updated covariance; bearing innovation wrapped.  The
     single-measurement case of :func:`trackcore.association.pda_update`, written out
-    with the work arrays ``K`` (4, 2) and ``A`` (4, 4) for the tentative tracks'
+    with the work arrays ``K`` (4, 2), ``A`` and ``W`` (4, 4) for the tentative tracks'
     inner loop (a unit test checks the two agree)."""
     # S = H P H^T + R and its inverse
     s00 = R[0, 0]
@@ -723,16 +750,20 @@ def _pda1_update(x, P, z, zhat, H, R, beta, x_out, P_out, K, A):
         for j in range(4):
             A[i, j] = (1.0 if i == j else 0.0) - K[i, 0] * H[0, j] - K[i, 1] * H[1, j]
     spread = beta * (1.0 - beta)
+    # W[j, c] = (P A^T)_cj, the inner sums of the Joseph form
+    for j in range(4):
+        for c in range(4):
+            apc = 0.0
+            for d in range(4):
+                apc += P[c, d] * A[j, d]
+            W[j, c] = apc
     for i in range(4):
         kn_i = K[i, 0] * nu0 + K[i, 1] * nu1
         for j in range(i + 1):
             # Joseph form (A P A^T + K R K^T)_ij
             v = 0.0
             for c in range(4):
-                apc = 0.0
-                for d in range(4):
-                    apc += P[c, d] * A[j, d]
-                v += A[i, c] * apc
+                v += A[i, c] * W[j, c]
             v += (K[i, 0] * (R[0, 0] * K[j, 0] + R[0, 1] * K[j, 1])
                   + K[i, 1] * (R[1, 0] * K[j, 0] + R[1, 1] * K[j, 1]))
             kn_j = K[j, 0] * nu0 + K[j, 1] * nu1
@@ -775,6 +806,7 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, Q_t, R, rng,
     Pb = np.zeros((4, 4))
     K_b = np.zeros((4, 2))
     A_b = np.zeros((4, 4))
+    W_b = np.zeros((4, 4))
     zhat = np.zeros(2)
     S = np.zeros((2, 2))
     H3 = np.zeros((1, 2, 4))
@@ -789,6 +821,15 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, Q_t, R, rng,
     pf = np.zeros(mmax)
     zgbuf = np.zeros((mmax, 2))
     betbuf = np.zeros(mmax)
+    termbuf = np.zeros(mmax)
+    # q_1 of the rank probabilities per number of gated returns (c is fixed for the run)
+    q1cache = np.full(mmax + 1, -1.0)
+    prng = np.zeros(N)
+    pbrg = np.zeros(N)
+    prel = np.zeros(N)
+    nu_b = np.zeros(2)
+    S_b = np.zeros((2, 2))
+    pda_work = _pda_scratch(4, 2, mmax)
     thint = 0   # lowest tentative slot that may be free
     for k in range(K):
         Zs = Z[off[k]:off[k + 1]]
@@ -807,10 +848,10 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, Q_t, R, rng,
             X = cX[t]
             jump_markov_propagate_kernel(X, cM[t], cum_tpm, T, sigma_a, a_m, rng)
             ppred = pi11 * cp[t] + pi12 * (1.0 - cp[t])
-            _particle_moments(X, zhat, S, R)
+            _particle_moments_polar(X, zhat, S, R, prng, pbrg, prel)
             m, js, beta, delta, pts, pfs, VG, s_u, s_h, s_nn = _gate_and_select(
                 Zs, As, border, bsorted, zhat, S, g2, pd, pg, c, lam_xy, rule, vidx, d2buf,
-                ndens, pt, pf)
+                ndens, pt, pf, q1cache)
             _count_selection(diag, 0, m, s_h, s_nn, lam_xy * zhat[0] * VG)
             for l in range(m):
                 in_conf[vidx[l]] = True
@@ -821,11 +862,12 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, Q_t, R, rng,
                 lpt = math.log(pts) if pts > 0.0 else -np.inf
                 lpf = math.log(pfs / VG) if pfs > 0.0 else -np.inf
                 if rule == 4:
-                    _ipda_weight_resample(X, cM[t], Zs, vidx, m, Rinv, logdetR, lpt, lpf,
-                                          logw, scratch, mscratch, ridx, rng)
+                    _ipda_weight_resample(X, cM[t], prng, pbrg, Zs, vidx, m, Rinv, logdetR,
+                                          lpt, lpf, logw, termbuf, scratch, mscratch, ridx,
+                                          rng)
                 else:
-                    _weight_resample(X, cM[t], Zs[js], Rinv, logdetR, lpt, lpf, logw,
-                                     scratch, mscratch, ridx, rng)
+                    _weight_resample(X, cM[t], prng, pbrg, Zs[js], Rinv, logdetR, lpt, lpf,
+                                     logw, scratch, mscratch, ridx, rng)
         # duplicates and termination
         for t in range(NC):
             if not cact[t]:
@@ -860,7 +902,7 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, Q_t, R, rng,
             H = H3[0]
             m, js, beta, delta, pts, pfs, VG, s_u, s_h, s_nn = _gate_and_select(
                 Zs, As, border, bsorted, zhat, S, g2, pd, pg, c, lam_xy, rule, vidx, d2buf,
-                ndens, pt, pf)
+                ndens, pt, pf, q1cache)
             _count_selection(diag, 1, m, s_h, s_nn, lam_xy * zhat[0] * VG)
             den = 1.0 - delta * ppred
             tp[t] = 1.0 if den <= 0.0 else min(1.0, max(0.0, (1.0 - delta) * ppred / den))
@@ -877,10 +919,12 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, Q_t, R, rng,
                 selected[js] = True
                 if rule == 4:
                     _ipda_ekf_update(tx[t], tP[t], Zs, vidx, m, zhat, H, R, pd, pd * pg,
-                                     lam_xy * zhat[0], ndens, zgbuf, betbuf, xb, Pb)
+                                     lam_xy * zhat[0], ndens, zgbuf, betbuf, xb, Pb, nu_b,
+                                     S_b, K_b, pda_work)
                 else:
                     # single-measurement PDA update of the EKF with beta^s
-                    _pda1_update(tx[t], tP[t], Zs[js], zhat, H, R, beta, xb, Pb, K_b, A_b)
+                    _pda1_update(tx[t], tP[t], Zs[js], zhat, H, R, beta, xb, Pb, K_b, A_b,
+                                 W_b)
                 tx[t, :] = xb
                 tP[t, :, :] = Pb
             if tp[t] >= p_conf:
@@ -978,6 +1022,7 @@ def _clutter_lr_kernel(rule, clutter_mean, pd, pg, g2, c, tau, n, rng, out):
     ndens = np.zeros(mcap)
     pt = np.zeros(mcap)
     pf = np.zeros(mcap)
+    q1cache = np.full(mcap + 1, -1.0)
     for i in range(n):
         m = min(rng.poisson(clutter_mean), mcap)
         for j in range(m):
@@ -991,7 +1036,7 @@ def _clutter_lr_kernel(rule, clutter_mean, pd, pg, g2, c, tau, n, rng, out):
         for q in range(m):
             bsorted[q] = Zs[border[q], 1]
         res = _gate_and_select(Zs[:m], As[:m], border, bsorted, zhat, S, g2, pd, pg, c,
-                               lam_xy, rule, vidx, d2buf, ndens, pt, pf)
+                               lam_xy, rule, vidx, d2buf, ndens, pt, pf, q1cache)
         out[i] = 1.0 - res[3]
 
 

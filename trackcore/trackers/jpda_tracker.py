@@ -40,7 +40,7 @@ from scipy.stats import beta as beta_dist
 
 from ..association.gating import mahalanobis_gate_kernel
 from ..core.validation import as_array, as_bool_matrix
-from ..association.jpda import feasible_event_count, jpda_clusters, jpda_marginals
+from ..association.jpda import _clusters, _jpda_marginals_checked, feasible_event_count
 from ..association.pda import pda_update_kernel
 from ..filters.kalman import cholesky_lower_kernel, kf_predict_kernel
 from ..detection.image import _mask_ncc as ncc
@@ -438,35 +438,39 @@ class JPDATracker:
                         beta[j + 1, i] = 1.0
             n_events = 0
         else:
-            for trk, mea in jpda_clusters(valid):
+            # the inputs are valid by construction: jpda_marginals and jpda_clusters
+            # without their checks (valid is valid_kin & (rho >= c_I) for the F variants,
+            # the feature validation jpda_marginals would compute from rho)
+            for trk, mea in _clusters(valid):
                 if len(mea) == 0:
                     n_events += 1
                     continue
-                ix = np.ix_(mea, trk)
+                ix = (mea[:, None], trk)   # np.ix_(mea, trk), without its checks
                 sub_valid = valid[ix]
                 sub_lik = lik[ix]
+                pd_arr = np.full(len(trk), float(c.pd))
+                sub_rho = None
                 if c.variant == "FJPDA" and c.feature_lr is not None:
                     r = np.clip(rho[ix], 1e-6, 1 - 1e-6)
                     a1, b1, a0, b0 = c.feature_lr
                     lr = np.exp(beta_dist.logpdf(r, a1, b1) - beta_dist.logpdf(r, a0, b0))
-                    b, n = jpda_marginals(sub_lik * lr, sub_valid, c.pd, c.lam)
+                    sub_lik = sub_lik * lr
                 elif c.variant == "FJPDA" and c.rho_weight == "normalised":
                     w = np.where(sub_valid, rho[ix], 0.0)
                     tot = w.sum(axis=0)
                     w = np.divide(w, tot, out=np.zeros_like(w), where=tot > 0)
-                    b, n = jpda_marginals(sub_lik * w, sub_valid, c.pd, c.lam)
+                    sub_lik = sub_lik * w
                 elif c.variant == "FJPDA":
-                    b, n = jpda_marginals(sub_lik, valid_kin[ix], c.pd, c.lam,
-                                          rho=rho[ix], c_I=c.c_I)
-                else:
-                    b, n = jpda_marginals(sub_lik, sub_valid, c.pd, c.lam)
+                    sub_rho = rho[ix]
+                b, n = _jpda_marginals_checked(sub_lik, sub_valid, pd_arr, float(c.lam),
+                                               sub_rho, False, 0.0, "auto")
                 n_events += n
                 beta[0, trk] = b[0]
-                beta[np.ix_(mea + 1, trk)] = b[1:]
+                beta[(mea + 1)[:, None], trk] = b[1:]
         n_events_kin = n_events
         if c.uses_features and not np.array_equal(valid, valid_kin):
             n_events_kin = 0
-            for trk, mea in jpda_clusters(valid_kin):
+            for trk, mea in _clusters(valid_kin):
                 n_events_kin += (feasible_event_count(valid_kin[np.ix_(mea, trk)])
                                  if len(mea) else 1)
         # state update
