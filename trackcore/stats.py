@@ -68,6 +68,8 @@ from scipy.special import ndtr, ndtri
 from scipy.stats import beta as _beta_dist
 from scipy.stats import binom
 
+from . import _stats_kernels as _K
+
 __all__ = [
     "Estimate",
     "Comparison",
@@ -333,15 +335,21 @@ def _boot_means(samples, paired, n_boot, seed):
     while done < n_boot:
         b = min(_CHUNK, n_boot - done)
         if paired:
-            idx = rng.integers(0, samples[0].size, size=(b, samples[0].size))
+            idx = _draw(rng, samples[0].size, b)
             for o, s in zip(out, samples):
-                o[done:done + b] = s[idx].mean(axis=1)
+                o[done:done + b] = _K.boot_means(s, idx)
         else:
             for o, s in zip(out, samples):
-                idx = rng.integers(0, s.size, size=(b, s.size))
-                o[done:done + b] = s[idx].mean(axis=1)
+                o[done:done + b] = _K.boot_means(s, _draw(rng, s.size, b))
         done += b
     return out
+
+
+def _draw(rng, n, b):
+    """``b`` resamples of ``n`` run indices: ``rng.integers(0, n, size=(b, n))``, drawn as
+    32-bit integers (the same values NumPy draws as 64-bit ones for ``n < 2**31``, in half
+    the memory; ``tests/test_stats_kernels.py`` checks it)."""
+    return rng.integers(0, n, size=(b, n), dtype=np.int32 if n < 2 ** 31 else np.int64)
 
 
 def _jack_means(x):
@@ -404,11 +412,11 @@ def _student_mean(v, level, n_boot, seed, method):
     done = 0
     while done < n_boot:
         b = min(_CHUNK, n_boot - done)
-        r = v[rng.integers(0, n, size=(b, n))]
-        sb = r.std(axis=1, ddof=1)
+        mb, vb = _K.boot_mean_var(v, _draw(rng, n, b))
+        sb = np.sqrt(vb)
         sb[sb <= tol] = 0.0  # spread at rounding level is no spread
         with np.errstate(divide="ignore", invalid="ignore"):
-            t[done:done + b] = (r.mean(axis=1) - m) / (sb / math.sqrt(n))
+            t[done:done + b] = (mb - m) / (sb / math.sqrt(n))
         done += b
     return _studentized(m, se, t, level, n, method, (float(v.min()), float(v.max())))
 
@@ -434,16 +442,18 @@ def _student_ratio(x, y, paired, level, n_boot, seed, n, method):
     while done < n_boot:
         b = min(_CHUNK, n_boot - done)
         if paired:
-            idx = rng.integers(0, x.size, size=(b, x.size))
-            xb, yb = x[idx], y[idx]
+            mx, my, ss = _K.boot_paired_ratio(x, y, _draw(rng, x.size, b))
         else:
-            xb = x[rng.integers(0, x.size, size=(b, x.size))]
-            yb = y[rng.integers(0, y.size, size=(b, y.size))]
-        my = yb.mean(axis=1)
+            mx, vx = _K.boot_mean_var(x, _draw(rng, x.size, b))
+            my, vy = _K.boot_mean_var(y, _draw(rng, y.size, b))
         if np.any(my <= 0):
             raise ValueError(_ZERO_DEN.format(k=int(np.sum(my <= 0)), b=b))
-        rb = xb.mean(axis=1) / my
-        seb = _ratio_se(xb, yb, rb, paired)
+        rb = mx / my
+        # the delta-method standard error of _ratio_se, from the kernels' sums
+        if paired:
+            seb = np.sqrt(ss / (x.size * (x.size - 1))) / np.abs(my)
+        else:
+            seb = np.sqrt(vx / x.size + rb ** 2 * vy / y.size) / np.abs(my)
         seb[seb <= _REL_TOL * abs(r)] = 0.0  # spread at rounding level is no spread
         with np.errstate(divide="ignore", invalid="ignore"):
             t[done:done + b] = (rb - r) / seb
