@@ -56,3 +56,29 @@ def test_intervals_unchanged_by_kernels():
     ref = stats._studentized(m, se, t, 0.95, v.size, "studentized bootstrap",
                              (float(v.min()), float(v.max())))
     assert stats.mean_ci(v) == ref, "mean_ci's interval changed"
+
+
+def test_memo_returns_the_same_interval_and_follows_the_content():
+    rng = np.random.default_rng(21)
+    x = rng.gamma(2.0, 1.0, 80)
+    y = x + rng.normal(0.0, 0.3, 80)
+    stats._MEMO.clear()
+    first = stats.paired_diff_ci(x, y)
+    assert len(stats._MEMO) == 1, "the interval was not remembered"
+    assert stats.paired_diff_ci(x.copy(), list(y)) is first, "same content, new bootstrap"
+    assert stats.paired_diff_ci(x, y, seed=1) != first, "another seed must give its own interval"
+    x[0] += 1.0
+    assert stats.paired_diff_ci(x, y).value != first.value, "a changed array got a stale interval"
+    stats._MEMO.clear()
+    assert stats.paired_diff_ci(x, y) == stats.paired_diff_ci.__wrapped__(x, y), \
+        "the remembered interval differs from a fresh computation"
+
+
+def test_memo_skips_what_it_cannot_key_and_does_not_remember_errors():
+    stats._MEMO.clear()
+    with pytest.raises(ValueError):
+        stats.mean_ci(np.full(50, 2.0))
+    assert not stats._MEMO, "an error was remembered"
+    with pytest.raises((TypeError, ValueError)):
+        stats.mean_ci(np.array([1.0, None] * 30, dtype=object))
+    assert not stats._MEMO, "an object array was keyed"

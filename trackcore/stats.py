@@ -47,7 +47,11 @@ seed, so that a notebook prints the same interval on every machine; the BCa acce
 comes from the exact jackknife of the statistic (O(n) for means, differences and ratios).
 Values of any finite size are accepted: huge ones (~1e300) are rescaled by a power of two
 internally.  :func:`diff_ci` (independent samples) and :func:`bootstrap_ci` (any statistic)
-keep the BCa interval at every ``n``; their coverage is not part of the promise.
+keep the BCa interval at every ``n``; their coverage is not part of the promise.  The
+resampled means and spreads are summed by private numba kernels in NumPy's own summation
+order, so they equal the plain NumPy expressions bit for bit, and the last 1024 intervals
+are remembered by the content of their samples (an interval is a pure function of the
+values and the arguments), so asking twice costs one bootstrap.
 
 Every interval is returned as an :class:`Estimate`, which formats as ``value [lo, hi]``::
 
@@ -59,7 +63,10 @@ Every interval is returned as an :class:`Estimate`, which formats as ``value [lo
 """
 from __future__ import annotations
 
+import functools
+import hashlib
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Callable
 
@@ -552,6 +559,51 @@ def _no_spread(name, v):
 
 # --------------------------------------------------------------------------- intervals
 
+_MEMO: OrderedDict = OrderedDict()
+_MEMO_SIZE = 1024  # intervals remembered (a few hundred bytes each)
+
+
+def _memo_key(name, args, kwargs):
+    """A key of an interval call: the function, each sample's dtype, shape and a digest of
+    its bytes, and the keyword arguments; ``None`` (not remembered) for anything else."""
+    parts = [name]
+    for a in args:
+        arr = np.asarray(a)
+        if arr.dtype.kind not in "biuf":
+            return None
+        digest = hashlib.blake2b(np.ascontiguousarray(arr).tobytes(), digest_size=16)
+        parts.append((arr.dtype.str, arr.shape, digest.digest()))
+    try:
+        parts.append(tuple(sorted(kwargs.items())))
+        hash(parts[-1])
+    except TypeError:
+        return None
+    return tuple(parts)
+
+
+def _memoized(f):
+    """Remember the last ``_MEMO_SIZE`` intervals by the content of their samples.  An
+    interval is a pure function of the values and the arguments (the resampling seed is one
+    of them), so a notebook that asks twice for the same interval gets the same
+    :class:`Estimate` without a second bootstrap; a changed array has a new digest, so it
+    is never served a stale one.  Errors are not remembered."""
+    @functools.wraps(f)
+    def wrapper(*args, **kwargs):
+        key = _memo_key(f.__name__, args, kwargs)
+        if key is None:
+            return f(*args, **kwargs)
+        hit = _MEMO.get(key)
+        if hit is not None:
+            _MEMO.move_to_end(key)
+            return hit
+        est = f(*args, **kwargs)
+        _MEMO[key] = est
+        if len(_MEMO) > _MEMO_SIZE:
+            _MEMO.popitem(last=False)
+        return est
+    return wrapper
+
+@_memoized
 def mean_ci(x, *, level: float = LEVEL, n_boot: int = N_BOOT, seed: int = 0) -> Estimate:
     """Interval of the mean of ``x`` (one value per Monte Carlo run).
 
@@ -605,6 +657,7 @@ def mean_ci(x, *, level: float = LEVEL, n_boot: int = N_BOOT, seed: int = 0) -> 
     return _bca(x.mean(), boot, _jack_means(x), level, n, "BCa bootstrap")
 
 
+@_memoized
 def paired_diff_ci(x, y, *, level: float = LEVEL, n_boot: int = N_BOOT,
                    seed: int = 0) -> Estimate:
     """Interval of ``mean(x) - mean(y)`` for paired runs (run ``i`` of ``x`` and of ``y``
@@ -649,6 +702,7 @@ def paired_diff_ci(x, y, *, level: float = LEVEL, n_boot: int = N_BOOT,
     return _bca(d.mean(), boot, _jack_means(d), level, d.size, "paired BCa bootstrap")
 
 
+@_memoized
 def diff_ci(x, y, *, level: float = LEVEL, n_boot: int = N_BOOT, seed: int = 0) -> Estimate:
     """Interval of ``mean(x) - mean(y)`` for independent samples (resampled separately),
     BCa bootstrap. Two 0/1 samples that are each all-equal get Newcombe's score interval;
@@ -682,6 +736,7 @@ def diff_ci(x, y, *, level: float = LEVEL, n_boot: int = N_BOOT, seed: int = 0) 
     return _bca(x.mean() - y.mean(), bx - by, jack, level, x.size + y.size, "BCa bootstrap")
 
 
+@_memoized
 def ratio_ci(x, y, *, paired: bool = True, level: float = LEVEL, n_boot: int = N_BOOT,
              seed: int = 0) -> Estimate:
     """Interval of ``mean(x) / mean(y)`` (e.g. one filter's RMSE as a fraction of another's).
