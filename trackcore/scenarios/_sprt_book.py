@@ -80,11 +80,23 @@ def paired_effect(d, k, base, changed, min_runs=None):
 
 def effect_verdict(est, margin, helpful):
     """The verdict of a paired effect ``est`` (an Estimate or None) as the registry's
-    direction rule with an equivalence margin decides it: ``"helps"`` when the whole
-    interval lies on the ``helpful`` side of 0 (``"above"`` or ``"below"``), ``"hurts"``
-    when it lies wholly on the other side, ``"none"`` when it lies inside ``[-margin,
-    margin]`` (a demonstrated equivalence), else ``"undecided"`` (also without an
-    interval)."""
+    cause factorial's declared rule decides it (index, "Choices we made"): ``"none"``
+    when the whole interval lies inside ``[-margin, margin]`` (a demonstrated
+    equivalence: no cause, however the interval lies about 0), else ``"helps"`` when it
+    lies wholly on the ``helpful`` side of 0 (``"above"`` or ``"below"``), ``"hurts"``
+    when it lies wholly on the other side, else ``"undecided"`` (also without an
+    interval).  Equivalence is checked first: a small effect decided on many runs is
+    "none", not "helps".
+
+    Examples
+    --------
+    >>> from trackcore.stats import Estimate
+    >>> from trackcore.scenarios._sprt_book import effect_verdict
+    >>> effect_verdict(Estimate(0.005, 0.002, 0.008, 0.95, 5000, "t"), 0.02, "above")
+    'none'
+    >>> effect_verdict(Estimate(0.03, 0.01, 0.05, 0.95, 5000, "t"), 0.02, "above")
+    'helps'
+    """
     if helpful not in ("above", "below"):
         raise ValueError(f"helpful must be 'above' or 'below', got {helpful!r}")
     if not margin > 0:
@@ -92,12 +104,12 @@ def effect_verdict(est, margin, helpful):
     if est is None:
         return "undecided"
     lo, hi = (est.lo, est.hi) if helpful == "above" else (-est.hi, -est.lo)
+    if -margin <= lo and hi <= margin:
+        return "none"
     if lo > 0:
         return "helps"
     if hi < 0:
         return "hurts"
-    if -margin <= lo and hi <= margin:
-        return "none"
     return "undecided"
 
 
