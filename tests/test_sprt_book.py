@@ -98,3 +98,27 @@ def test_annotated_heatmap_rejects_a_mismatched_grid():
         sb.annotated_heatmap(ax, np.zeros((2, 2)), [0.0, 1.0, 2.0], [0.0, 1.0],
                              cmap="viridis", vrange=(0, 1), fmt="{}", dark=bool)
     plt.close(fig)
+
+
+def test_paired_rate_diff_ci_matches_the_stats_helper():
+    """The multinomial draw of the three per-run differences gives the same paired BCa
+    interval as trackcore.stats.paired_diff_ci (up to bootstrap noise), and the helper
+    itself below BCA_RUNS runs."""
+    import numpy as np
+    import pytest
+
+    from trackcore.scenarios._sprt_book import paired_rate_diff_ci
+    from trackcore.stats import paired_diff_ci
+
+    rng = np.random.default_rng(5)
+    base = rng.random(3000)
+    x = (base < 0.9).astype(float)
+    y = (base + rng.normal(0, 0.05, base.size) < 0.88).astype(float)
+    a, b = paired_diff_ci(x, y), paired_rate_diff_ci(x, y)
+    assert a.value == b.value, "the same estimate"
+    assert abs(a.lo - b.lo) < 0.002 and abs(a.hi - b.hi) < 0.002, f"{a} against {b}"
+    assert "multinomial" in b.method, b.method
+    small = paired_rate_diff_ci(x[:100], y[:100])
+    assert small == paired_diff_ci(x[:100], y[:100]), "below BCA_RUNS: the helper itself"
+    with pytest.raises(ValueError, match="0/1"):
+        paired_rate_diff_ci(x + 0.5, y)

@@ -60,13 +60,31 @@ def test_effect_verdict():
         return Estimate((lo + hi) / 2, lo, hi, 0.95, 100, "test")
 
     assert effect_verdict(est(0.01, 0.05), 0.02, "above") == "helps", "above 0 helps"
-    assert effect_verdict(est(-0.5, -0.1), 0.5, "below") == "helps", "fewer scans help"
-    assert effect_verdict(est(0.1, 0.3), 0.5, "below") == "hurts", "more scans hurt"
+    assert effect_verdict(est(-0.7, -0.1), 0.5, "below") == "helps", "fewer scans help"
+    assert effect_verdict(est(0.1, 0.7), 0.5, "below") == "hurts", "more scans hurt"
     assert effect_verdict(est(-0.01, 0.015), 0.02, "above") == "none", "equivalence"
     assert effect_verdict(est(-0.01, 0.03), 0.02, "above") == "undecided", "a tie"
     assert effect_verdict(None, 0.02, "above") == "undecided", "no interval"
     with pytest.raises(ValueError, match="helpful"):
         effect_verdict(est(0, 1), 0.02, "up")
+
+
+def test_effect_verdict_checks_equivalence_first():
+    """The declared rule (index, "Choices we made"): effects within the margin are "no
+    cause", even when the interval excludes 0 (a small effect decided on many runs); the
+    earlier order tested "helps" / "hurts" first and called these helping or hurting."""
+    from trackcore.scenarios._sprt_book import effect_verdict
+    from trackcore.stats import Estimate
+
+    def est(lo, hi):
+        return Estimate((lo + hi) / 2, lo, hi, 0.95, 5000, "test")
+
+    assert effect_verdict(est(0.002, 0.008), 0.02, "above") == "none", "small gain"
+    assert effect_verdict(est(-0.008, -0.002), 0.02, "above") == "none", "small loss"
+    assert effect_verdict(est(-0.4, -0.1), 0.5, "below") == "none", "a few scans fewer"
+    assert effect_verdict(est(0.1, 0.4), 0.5, "below") == "none", "a few scans more"
+    assert effect_verdict(est(0.002, 0.03), 0.02, "above") == "helps", "past the margin"
+    assert effect_verdict(est(-0.03, -0.002), 0.02, "above") == "hurts", "past the margin"
 
 
 def test_paired_effect_without_spread():

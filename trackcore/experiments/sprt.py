@@ -51,7 +51,11 @@ and the chapter's declared geometry family (index, "Readings"; issue 27):
   found the 1000-run cells too small for an interval of the mean scan on success);
 * ``sprt-calib-s1-met``: the calibration statistics of ``sprt-calib-s1-family`` in the
   13 cells of ``sprt-s1-geometry`` where S1 reproduces, on S1's 5000 verdict runs
-  (seed + 500; 06-sensitivity).
+  (seed + 500; 06-sensitivity);
+* ``sprt-fss-confirm-s1``: the fixed-sample-size confirmation set (04-fixed-sample-size):
+  the SPRT's decision and the FSS test's at N = 7 and 8 in the six cells of S1's family,
+  on 40000 fresh runs of a new seed (seed + 6000; declared after a review found the
+  5000 runs of 04 too few to decide FSS(7) against the SPRT).
 """
 from __future__ import annotations
 
@@ -617,3 +621,50 @@ register(Experiment(
     config=SprtCellsConfig(1, tuple(family_cell(1, a, lead)
                                     for a, lead in CALIB_MET_GEOMETRIES)),
     seed=SEED + 500, runs=5000, version="1", notebook=_NB06))
+
+
+#: The fixed-sample-size confirmation set (declared before its runs, after a second fresh
+#: review found FSS(7) - SPRT above 0 on 20000 pooled runs of its own seeds where the
+#: book's 5000 runs of 04-fixed-sample-size tie): S1 in the six cells of the declared
+#: family (G-A first) on FSS_CONFIRM_RUNS fresh runs of a seed no earlier run used. The
+#: count was fixed before any run from the cost (3.0 ms of CPU per run for the six cells,
+#: measured on already-seen runs) and the spread of the book's 5000 runs (half-width
+#: 0.7 points of FSS(7) - SPRT at 5000 runs, about 0.25 at 40000).
+FSS_CONFIRM_SEED = SEED + 6000
+FSS_CONFIRM_RUNS = 40000
+#: the fixed sample sizes whose decisions are kept (the paper's 8 and the book's 7)
+FSS_CONFIRM_NS = (7, 8)
+
+
+def _fss_trial(rng, scenario, cells, h1_true):
+    """One run of every cell from the same generator state: the SPRT's decision and scan
+    at the cell's +-gamma, and whether the fixed-sample-size test with N scans decides
+    H0 (Lambda(N) < 0), for each N of :data:`FSS_CONFIRM_NS`."""
+    d = np.empty(len(cells), dtype=np.int8)
+    k = np.empty(len(cells), dtype=np.int16)
+    fss = np.empty((len(cells), len(FSS_CONFIRM_NS)), dtype=np.int8)
+    for j, sc, out in _each_cell(rng, scenario, cells, h1_true):
+        d[j], k[j] = sprt_decide(out.llr, -sc.gamma, sc.gamma)
+        fss[j] = [out.llr[n - 1] < 0 for n in FSS_CONFIRM_NS]
+    return d, k, fss
+
+
+def _fss_extract(out, config):
+    d, k, fss = out
+    cols = {"d": d, "k": k}
+    for i, n in enumerate(FSS_CONFIRM_NS):
+        cols[f"fss{n}_h0"] = fss[:, i]
+    return cols
+
+
+register(Experiment(
+    name="sprt-fss-confirm-s1",
+    description=("SPRT chapter, the fixed-sample-size confirmation set: S1 in the declared "
+                 "family (45/0, 33.8/0, 33.8/-15, 33.8/+15, 45/-15, 45/+15), the SPRT's "
+                 "decision and scan and the FSS test's decision at N = 7 and 8, fresh runs "
+                 "of a new seed"),
+    trial=_fss_trial, call=_cells_call, extract=_fss_extract,
+    config=SprtCellsConfig(1, tuple(family_cell(1, a, lead)
+                                    for a, lead in CALIB_GEOMETRIES)),
+    seed=FSS_CONFIRM_SEED, runs=FSS_CONFIRM_RUNS, version="1",
+    notebook="book/002-sprt-acm/04-fixed-sample-size.ipynb"))

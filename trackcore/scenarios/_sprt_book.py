@@ -80,11 +80,23 @@ def paired_effect(d, k, base, changed, min_runs=None):
 
 def effect_verdict(est, margin, helpful):
     """The verdict of a paired effect ``est`` (an Estimate or None) as the registry's
-    direction rule with an equivalence margin decides it: ``"helps"`` when the whole
-    interval lies on the ``helpful`` side of 0 (``"above"`` or ``"below"``), ``"hurts"``
-    when it lies wholly on the other side, ``"none"`` when it lies inside ``[-margin,
-    margin]`` (a demonstrated equivalence), else ``"undecided"`` (also without an
-    interval)."""
+    cause factorial's declared rule decides it (index, "Choices we made"): ``"none"``
+    when the whole interval lies inside ``[-margin, margin]`` (a demonstrated
+    equivalence: no cause, however the interval lies about 0), else ``"helps"`` when it
+    lies wholly on the ``helpful`` side of 0 (``"above"`` or ``"below"``), ``"hurts"``
+    when it lies wholly on the other side, else ``"undecided"`` (also without an
+    interval).  Equivalence is checked first: a small effect decided on many runs is
+    "none", not "helps".
+
+    Examples
+    --------
+    >>> from trackcore.stats import Estimate
+    >>> from trackcore.scenarios._sprt_book import effect_verdict
+    >>> effect_verdict(Estimate(0.005, 0.002, 0.008, 0.95, 5000, "t"), 0.02, "above")
+    'none'
+    >>> effect_verdict(Estimate(0.03, 0.01, 0.05, 0.95, 5000, "t"), 0.02, "above")
+    'helps'
+    """
     if helpful not in ("above", "below"):
         raise ValueError(f"helpful must be 'above' or 'below', got {helpful!r}")
     if not margin > 0:
@@ -92,12 +104,12 @@ def effect_verdict(est, margin, helpful):
     if est is None:
         return "undecided"
     lo, hi = (est.lo, est.hi) if helpful == "above" else (-est.hi, -est.lo)
+    if -margin <= lo and hi <= margin:
+        return "none"
     if lo > 0:
         return "helps"
     if hi < 0:
         return "hurts"
-    if -margin <= lo and hi <= margin:
-        return "none"
     return "undecided"
 
 
@@ -161,3 +173,41 @@ def annotated_heatmap(ax, val, xs, ys, *, cmap, vrange, fmt, dark, half=(2.5, 2.
                     color="w" if dark(v) else "k")
     ax.grid(False)
     return im
+
+
+def paired_rate_diff_ci(x, y, *, seed=0):
+    """:func:`trackcore.stats.paired_diff_ci` of paired 0/1 runs ``x`` and ``y`` (the
+    difference of their rates), at a cost that does not grow with the runs.
+
+    From ``BCA_RUNS`` runs with ``MIN_EVENTS`` discordant runs that helper returns the
+    paired BCa bootstrap interval, which resamples every run (14 s for 40000 runs). The
+    per-run difference takes only the values -1, 0, +1, so a resample's mean is fixed by
+    how many of each it draws: a multinomial draw of the three counts gives the bootstrap
+    means with exactly the same distribution, and the jackknife is the helper's. Fewer
+    runs or discordant runs: the helper itself (Newcombe's interval).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.scenarios._sprt_book import paired_rate_diff_ci
+    >>> x = np.r_[np.ones(900), np.zeros(100)]
+    >>> y = np.r_[np.ones(850), np.zeros(150)]
+    >>> f"{paired_rate_diff_ci(x, y):+.1%}"
+    '+5.0 [+3.8, +6.5] %'
+    """
+    from .. import stats
+
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if x.ndim != 1 or x.shape != y.shape or not stats._is_binary(x, y):
+        raise ValueError("x and y must be 1-D 0/1 arrays of one length")
+    _, b, c, _ = stats._cells(x, y)
+    n = x.size
+    if n < stats.BCA_RUNS or b + c < stats.MIN_EVENTS:
+        return stats.paired_diff_ci(x, y, seed=seed)
+    rng = np.random.default_rng(seed)
+    counts = rng.multinomial(n, [b / n, c / n, 1.0 - (b + c) / n], size=stats.N_BOOT)
+    boot = (counts[:, 0] - counts[:, 1]) / n
+    d = x - y
+    return stats._bca(d.mean(), boot, stats._jack_means(d), stats.LEVEL, n,
+                      "paired BCa bootstrap (multinomial resampling)")
