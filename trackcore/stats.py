@@ -7,6 +7,8 @@ paper's claim fails":
 * :func:`paired_diff_ci` and :func:`ratio_ci` -- the difference or ratio of two means, with
   the runs resampled *together* when they are paired (same seeds, same scans);
 * :func:`diff_ci` -- the same for two independent samples;
+* :func:`paired_rate_diff_ci` -- :func:`paired_diff_ci` of paired 0/1 runs drawn as
+  multinomial counts, for tens of thousands of runs;
 * :func:`rate_ci` / :func:`wilson_interval` -- the Wilson score interval of a rate
   (lost tracks, success rates) :cite:p:`wilson1927`;
 * :func:`mcnemar_exact` -- the exact two-sided McNemar (sign) test on paired binary outcomes
@@ -83,6 +85,7 @@ __all__ = [
     "mean_ci",
     "diff_ci",
     "paired_diff_ci",
+    "paired_rate_diff_ci",
     "ratio_ci",
     "bootstrap_ci",
     "rate_ci",
@@ -700,6 +703,49 @@ def paired_diff_ci(x, y, *, level: float = LEVEL, n_boot: int = N_BOOT,
         return _student_mean(d, level, n_boot, seed, "paired studentized bootstrap")
     (boot,) = _boot_means([d], True, n_boot, seed)
     return _bca(d.mean(), boot, _jack_means(d), level, d.size, "paired BCa bootstrap")
+
+
+@_memoized
+def paired_rate_diff_ci(x, y, *, level: float = LEVEL, n_boot: int = N_BOOT,
+                        seed: int = 0) -> Estimate:
+    """:func:`paired_diff_ci` of paired 0/1 runs (the difference of two rates), at a cost
+    that does not grow with the number of runs.
+
+    Where :func:`paired_diff_ci` takes the paired BCa bootstrap (from ``BCA_RUNS`` runs
+    with ``MIN_EVENTS`` discordant runs), it resamples every run: about 3.5 s per interval
+    at 40 000 runs.  The per-run difference takes only the values -1, 0 and +1, so a
+    resample's mean is fixed by how many of each it draws; a multinomial draw of the three
+    counts gives bootstrap means with exactly the same distribution, and the jackknife is
+    the same.  The interval therefore agrees with :func:`paired_diff_ci`'s up to bootstrap
+    noise (``tests/test_sprt_book.py`` checks it), not digit for digit: a different random
+    stream.  With fewer runs or discordant runs it is :func:`paired_diff_ci` itself
+    (Newcombe's score interval).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.stats import paired_rate_diff_ci
+    >>> x = np.r_[np.ones(900), np.zeros(100)]
+    >>> y = np.r_[np.ones(850), np.zeros(150)]
+    >>> f"{paired_rate_diff_ci(x, y):+.1%}"
+    '+5.0 [+3.8, +6.5] %'
+    """
+    x, y = _as_runs(x, "x"), _as_runs(y, "y")
+    if x.size != y.size:
+        raise ValueError(f"paired samples need equal lengths, got x {x.size} and y {y.size}")
+    if not _is_binary(x, y):
+        raise ValueError("paired_rate_diff_ci needs 0/1 runs in x and y; use paired_diff_ci")
+    level, n_boot = _check_level(level), _check_n_boot(n_boot)
+    _, b, c, _ = _cells(x, y)
+    n = x.size
+    if n < BCA_RUNS or b + c < MIN_EVENTS:
+        return paired_diff_ci(x, y, level=level, n_boot=n_boot, seed=seed)
+    rng = np.random.default_rng(seed)
+    counts = rng.multinomial(n, [b / n, c / n, 1.0 - (b + c) / n], size=n_boot)
+    boot = (counts[:, 0] - counts[:, 1]) / n
+    d = x - y
+    return _bca(d.mean(), boot, _jack_means(d), level, n,
+                "paired BCa bootstrap (multinomial resampling)")
 
 
 @_memoized

@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from ..stats import paired_rate_diff_ci  # noqa: F401  (notebook 04 imports it from here)
+
 __all__: list[str] = []  # private: nothing is re-exported
 
 
@@ -175,39 +177,3 @@ def annotated_heatmap(ax, val, xs, ys, *, cmap, vrange, fmt, dark, half=(2.5, 2.
     return im
 
 
-def paired_rate_diff_ci(x, y, *, seed=0):
-    """:func:`trackcore.stats.paired_diff_ci` of paired 0/1 runs ``x`` and ``y`` (the
-    difference of their rates), at a cost that does not grow with the runs.
-
-    From ``BCA_RUNS`` runs with ``MIN_EVENTS`` discordant runs that helper returns the
-    paired BCa bootstrap interval, which resamples every run (14 s for 40000 runs). The
-    per-run difference takes only the values -1, 0, +1, so a resample's mean is fixed by
-    how many of each it draws: a multinomial draw of the three counts gives the bootstrap
-    means with exactly the same distribution, and the jackknife is the helper's. Fewer
-    runs or discordant runs: the helper itself (Newcombe's interval).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from trackcore.scenarios._sprt_book import paired_rate_diff_ci
-    >>> x = np.r_[np.ones(900), np.zeros(100)]
-    >>> y = np.r_[np.ones(850), np.zeros(150)]
-    >>> f"{paired_rate_diff_ci(x, y):+.1%}"
-    '+5.0 [+3.8, +6.5] %'
-    """
-    from .. import stats
-
-    x = np.asarray(x, dtype=float)
-    y = np.asarray(y, dtype=float)
-    if x.ndim != 1 or x.shape != y.shape or not stats._is_binary(x, y):
-        raise ValueError("x and y must be 1-D 0/1 arrays of one length")
-    _, b, c, _ = stats._cells(x, y)
-    n = x.size
-    if n < stats.BCA_RUNS or b + c < stats.MIN_EVENTS:
-        return stats.paired_diff_ci(x, y, seed=seed)
-    rng = np.random.default_rng(seed)
-    counts = rng.multinomial(n, [b / n, c / n, 1.0 - (b + c) / n], size=stats.N_BOOT)
-    boot = (counts[:, 0] - counts[:, 1]) / n
-    d = x - y
-    return stats._bca(d.mean(), boot, stats._jack_means(d), stats.LEVEL, n,
-                      "paired BCa bootstrap (multinomial resampling)")
