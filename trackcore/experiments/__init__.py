@@ -55,6 +55,7 @@ book's config when it is within ``FLOAT_RTOL`` of it (:meth:`Experiment.configur
 from . import registry  # noqa: F401  (registers the book's experiments)
 from ._core import (
     FLOAT_RTOL,
+    book_check,
     Experiment,
     MissingResultsError,
     Results,
@@ -84,7 +85,7 @@ from .registry import HoulesConfig, HoulesSweepConfig, HpdaMonteCarloConfig
 
 __all__ = [
     "FLOAT_RTOL", "Experiment", "HoulesConfig", "HoulesSweepConfig", "HpdaMonteCarloConfig", "MissingResultsError",
-    "Results", "StaleResultsError", "Verification", "VerificationError", "check_store",
+    "Results", "StaleResultsError", "Verification", "VerificationError", "book_check", "check_store",
     "code_version", "compare_rows", "compute_rows", "config_hash", "get", "load", "matches", "names",
     "obtain", "read_metadata", "register", "results_dir", "run_experiment", "sample_size",
     "status", "verify_sample", "write_store",
