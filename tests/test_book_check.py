@@ -5,17 +5,17 @@ from trackcore.experiments import book_check
 
 
 def test_book_runs_assert():
-    assert book_check(True, "holds", book=True) is True, "a passing check returns True"
+    assert book_check(True, "holds", book=True) is None, "a check returns nothing (no cell output)"
     with pytest.raises(AssertionError, match="the target is met"):
         book_check(False, "the target is met", book=True)
 
 
 def test_other_runs_report(capsys):
-    assert book_check(False, "the target is met", book=False) is False, \
-        "a failing check on other runs returns False"
+    assert book_check(False, "the target is met", book=False) is None, \
+        "a check returns nothing (no cell output)"
     assert "the book's check fails here: the target is met" in capsys.readouterr().out, \
         "the note names the check"
-    assert book_check(True, "quiet", book=False) is True, "a passing check returns True"
+    book_check(True, "quiet", book=False)
     assert capsys.readouterr().out == "", "a passing check prints nothing"
 
 

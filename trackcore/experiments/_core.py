@@ -1061,29 +1061,26 @@ def status(name) -> str:
     return "current"
 
 
-def book_check(ok, message, *, book) -> bool:
+def book_check(ok, message, *, book) -> None:
     """A check of the book's own results, as the notebooks make it.
 
     On the book's runs (``book`` true) a failed check raises ``AssertionError(message)``, so
     that ``pytest --nbval`` fails; on any other configuration (a reader who changed a
     parameter, a run count or a seed) it prints a note naming the check instead, so the
     notebook runs to the end and says which of the book's statements no longer hold.
-    Returns ``bool(ok)``.
+    Returns nothing, so a cell that ends with a check displays nothing.
 
     Examples
     --------
     >>> from trackcore.experiments import book_check
     >>> book_check(2 + 2 == 4, "arithmetic holds", book=True)
-    True
     >>> book_check(False, "the 5 % target is met", book=False)
     Note: not the book's runs, and the book's check fails here: the 5 % target is met
-    False
     """
     if not isinstance(message, str):
         raise TypeError(f"message must be a str, got {type(message).__name__}")
-    ok = bool(ok)
-    if book and not ok:
+    if ok:
+        return
+    if book:
         raise AssertionError(message)
-    if not ok:
-        print(f"Note: not the book's runs, and the book's check fails here: {message}")
-    return ok
+    print(f"Note: not the book's runs, and the book's check fails here: {message}")
