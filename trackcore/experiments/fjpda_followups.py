@@ -24,9 +24,14 @@ import numpy as np
 from ..scenarios.feature_metrics import scene_metrics
 from ._checks import check_finite, check_jitter, check_names
 from ._core import Experiment, register
-from .fjpda_readings import FALSE_SOURCES, FJPDA_READINGS_SEED, READINGS_SCENES, _FIELDS
-from .fjpda_templates import (FJPDA_MAP_SEED, FjpdaOcclusionMapConfig, _map_call,
-                              _map_extract, occlusion_map_trial)
+from .fjpda_readings import _FIELDS, FALSE_SOURCES, FJPDA_READINGS_SEED, READINGS_SCENES
+from .fjpda_templates import (
+    FJPDA_MAP_SEED,
+    FjpdaOcclusionMapConfig,
+    _map_call,
+    _map_extract,
+    occlusion_map_trial,
+)
 from .registry import _Config
 
 __all__ = ["MAP_LONG_MEMORY", "S3_LOW_THRESHOLDS", "FjpdaS3ThresholdConfig"]
