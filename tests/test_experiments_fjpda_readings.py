@@ -7,6 +7,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+from test_ncc_sliding import _sliding_reference  # the direct loop, shared
 
 from trackcore.core.rng import generator_for_run
 from trackcore.detection import ncc, ncc_sliding, vehicle_sprite
@@ -33,32 +34,13 @@ NAME = "fjpda-readings-glare"
 RUN = 3
 
 
-def _sliding_loop(A, B, s):
-    """Direct loop: B centred on a zero canvas (max h + 2s, max w + 2s), the template
-    A slid over every position, NCC over A's window, the maximum (0 if none)."""
-    A, B = A.astype(float), B.astype(float)
-    H, W = max(A.shape[0], B.shape[0]) + 2 * s, max(A.shape[1], B.shape[1]) + 2 * s
-    cb = np.zeros((H, W))
-    r, q = (H - B.shape[0]) // 2, (W - B.shape[1]) // 2
-    cb[r:r + B.shape[0], q:q + B.shape[1]] = B
-    a = A - A.mean()
-    best = 0.0
-    for i in range(H - A.shape[0] + 1):
-        for j in range(W - A.shape[1] + 1):
-            w = cb[i:i + A.shape[0], j:j + A.shape[1]]
-            w = w - w.mean()
-            den = np.sqrt((a * a).sum() * (w * w).sum())
-            if den > 0:
-                best = max(best, float((a * w).sum() / den))
-    return best
-
-
 def test_ncc_sliding_equals_a_direct_loop():
     rng = np.random.default_rng(0)
     for _ in range(5):
         A = rng.random((rng.integers(3, 9), rng.integers(3, 9))) < 0.5
         B = rng.random((rng.integers(3, 12), rng.integers(3, 12))) < 0.5
-        assert ncc_sliding(A, B, 2) == pytest.approx(_sliding_loop(A, B, 2), abs=1e-12)
+        ref = _sliding_reference(A, B, 2, "mask")
+        assert ncc_sliding(A, B, 2) == pytest.approx(ref, abs=1e-12)
     van = vehicle_sprite("van")[1]
     assert ncc_sliding(van, van) == pytest.approx(1.0), "a template matches itself"
 

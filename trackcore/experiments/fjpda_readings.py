@@ -269,12 +269,22 @@ def compare(x, y, names=("A", "B"), lower_is_better=True):
     >>> c = compare(np.full(40, 2.0), np.full(40, 1.5), ("FJPDA", "JPDA"))
     >>> format(c.diff, ".2f"), c.verdict
     ('0.50 (no interval)', 'no interval')
+
+    A mean difference that is zero but for float rounding (shares of different
+    denominators) is printed as 0:
+
+    >>> x = np.array([1 / 3, 2 / 3, 0.1, 0.7] * 10)
+    >>> y = np.roll(x, 1)
+    >>> float(np.mean(x - y)) == 0.0, format(compare(x, y).diff, ".2g")
+    (False, '0 [-0.16, 0.16]')
     """
+    from dataclasses import replace
+
     from ..scenarios.feature_metrics import PairedComparison, paired_comparison
     from ..stats import mcnemar_exact
 
     try:
-        return paired_comparison(x, y, names, lower_is_better)
+        c = paired_comparison(x, y, names, lower_is_better)
     except ValueError:
         x, y = np.asarray(x, float), np.asarray(y, float)
         d = (x - y) if lower_is_better else (y - x)
@@ -282,3 +292,8 @@ def compare(x, y, names=("A", "B"), lower_is_better=True):
         return PairedComparison(*names, float(x.mean()), float(y.mean()),
                                 NoInterval(np.mean(x - y)), a_b, b_b,
                                 mcnemar_exact(a_b, b_b), "no interval")
+    d = c.diff  # a mean difference of 1e-18 is a zero in float rounding
+    if d.value != 0 and abs(d.value) < 1e-12 * max(1.0, abs(d.lo), abs(d.hi)) \
+            and d.lo <= 0 <= d.hi:
+        c = c._replace(diff=replace(d, value=0.0))
+    return c

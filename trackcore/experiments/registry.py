@@ -417,5 +417,6 @@ from . import (
 from . import tom_pg1  # noqa: E402,F401  (001-03: tom-imm-houles-pg1, no gate)
 from . import hpda_comparators  # noqa: E402,F401  (000-hpda/08: hpda-cmp-pi*)
 from . import fjpda_templates  # noqa: E402,F401  (004: template cells, HOTA, occlusion map)
+from . import fjpda_followups  # noqa: E402,F401  (004: S3 c_I 0.3/0.2, the long occlusion map)
 from . import tom_ladder  # noqa: E402,F401  (001-05: the cause ladder, headings)
 from . import tom_tuning  # noqa: E402,F401  (001-05: the grids, fresh seeds, T9, no clutter)

@@ -1,0 +1,131 @@
+"""Feature-JPDA chapter (004): the follow-ups of the ninth review (issue 29).
+
+``fjpda-s3-threshold``: the S3 threshold sweep extended below 0.4.  The SAME master
+seed and run count (200) as ``fjpda-readings-s3-jitter5``, so run i renders and
+segments the same scene as that store's run i (the generator of run i depends only on
+the seed, i and the run count); on those detections it runs JPDA and FJPDA at the
+defaults (their rows must equal the readings rows, a check that the runs are the same)
+and FJPDA with c_I at each value of :data:`S3_LOW_THRESHOLDS`.  A row holds per tracker
+the readings fields (``V.<field>``, ``V.false_<source>``); no py-motmetrics.
+
+``fjpda-occlusion-map-long``: the occlusion map at memories as long as its merges.  The
+SAME master seed and run count (40) as ``fjpda-occlusion-map``, so every offset of every
+run is the same render and segmentation; JPDA and the four FJPDA cells of
+:data:`~trackcore.experiments.fjpda_templates.MAP_CELLS` at every memory of
+:data:`MAP_LONG_MEMORY` (6, 11 and 15 frames: one frame longer than the merges of 5, 10
+and 14 frames at the offsets 6, 4 and 2 px).  Rows as in ``fjpda-occlusion-map``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..scenarios.feature_metrics import scene_metrics
+from ._checks import check_finite, check_jitter, check_names
+from ._core import Experiment, register
+from .fjpda_readings import _FIELDS, FALSE_SOURCES, FJPDA_READINGS_SEED, READINGS_SCENES
+from .fjpda_templates import (
+    FJPDA_MAP_SEED,
+    FjpdaOcclusionMapConfig,
+    _map_call,
+    _map_extract,
+    occlusion_map_trial,
+)
+from .registry import _Config
+
+__all__ = ["MAP_LONG_MEMORY", "S3_LOW_THRESHOLDS", "FjpdaS3ThresholdConfig"]
+
+#: the c_I values of the extended S3 sweep (the readings store ran 0.4 to 0.8)
+S3_LOW_THRESHOLDS = (0.3, 0.2)
+#: the memories of the long occlusion map (frames)
+MAP_LONG_MEMORY = (6.0, 11.0, 15.0)
+
+
+@dataclass(frozen=True)
+class FjpdaS3ThresholdConfig(_Config):
+    """S3 under camera ``jitter`` px: JPDA, FJPDA and FJPDA at each c_I of
+    ``thresholds`` (each in (0, 1)).
+
+    Examples
+    --------
+    >>> config = FjpdaS3ThresholdConfig()
+    >>> list(config.variants())
+    ['JPDA', 'FJPDA', 'FJPDA, c_I 0.3', 'FJPDA, c_I 0.2']
+    >>> config.variants()["FJPDA, c_I 0.2"].c_I
+    0.2
+    >>> FjpdaS3ThresholdConfig(thresholds=(1.5,))
+    Traceback (most recent call last):
+        ...
+    ValueError: thresholds must lie in (0, 1), got 1.5
+    """
+
+    thresholds: tuple = S3_LOW_THRESHOLDS
+    jitter: float = 5.0
+
+    _KINDS = {"thresholds": "floats", "jitter": float}  # noqa: RUF012
+
+    def __post_init__(self):
+        check_names(self.thresholds, "thresholds")
+        for c in self.thresholds:
+            check_finite(c, "thresholds")
+            if not 0 < c < 1:
+                raise ValueError(f"thresholds must lie in (0, 1), got {c!r}")
+        check_jitter(self.jitter)
+
+    def variants(self) -> dict:
+        """``{label: JPDATrackerConfig}``: JPDA, FJPDA, then FJPDA per c_I."""
+        from ..trackers.jpda_tracker import matched_config
+
+        j = float(self.jitter)
+        out = {"JPDA": matched_config("JPDA", j), "FJPDA": matched_config("FJPDA", j)}
+        for c in self.thresholds:
+            out[f"FJPDA, c_I {c:.1f}"] = matched_config("FJPDA", j, c_I=float(c))
+        return out
+
+
+def threshold_trial(rng, variants, jitter):
+    """One run of S3: ``{label: SceneMetrics}`` on the same rendered and segmented
+    scene."""
+    from ..scenarios.feature_metrics import scene_run
+
+    scene, _, reports = scene_run(rng, "S3", variants, jitter=jitter)
+    return {label: scene_metrics(scene, reps) for label, reps in reports.items()}
+
+
+def _threshold_call(config):
+    return (config.variants(), float(config.jitter)), {}
+
+
+def _threshold_extract(out, config):
+    row = {}
+    for label, m in out.items():
+        for field, dtype in _FIELDS.items():
+            row[f"{label}.{field}"] = dtype(getattr(m, field))
+        src = dict(m.false_sources)
+        if set(src) - set(FALSE_SOURCES):
+            raise ValueError(f"false-track sources {sorted(src)} are not among "
+                             f"FALSE_SOURCES {FALSE_SOURCES}")
+        for s in FALSE_SOURCES:
+            row[f"{label}.false_{s}"] = np.int64(src.get(s, 0))
+    return row
+
+
+_NB = "book/004-feature-jpda/07-extensions.ipynb"
+_S3_INDEX = list(READINGS_SCENES).index("s3-jitter5")
+register(Experiment(
+    name="fjpda-s3-threshold",
+    description=("Feature-JPDA chapter, S3 under 5 px of jitter, c_I 0.3 and 0.2 (the runs "
+                 "of fjpda-readings-s3-jitter5): JPDA, FJPDA and FJPDA per c_I"),
+    trial=threshold_trial, call=_threshold_call, extract=_threshold_extract,
+    config=FjpdaS3ThresholdConfig(), seed=FJPDA_READINGS_SEED + _S3_INDEX, runs=200,
+    version="1", notebook=_NB))
+
+register(Experiment(
+    name="fjpda-occlusion-map-long",
+    description=("Feature-JPDA chapter, occlusion map at memories 6, 11 and 15 frames "
+                 "(the renders of fjpda-occlusion-map): TMR and false tracks of JPDA and "
+                 "FJPDA"),
+    trial=occlusion_map_trial, call=_map_call, extract=_map_extract,
+    config=FjpdaOcclusionMapConfig(memory=MAP_LONG_MEMORY), seed=FJPDA_MAP_SEED, runs=40,
+    version="1", notebook=_NB))
