@@ -125,3 +125,29 @@ def test_verification_catches_a_corrupted_count(tmp_path):
     with pytest.raises(VerificationError, match=r"run 1, column 'clustering_literal.count'"
                                                 r"\[0, 200\].*must be equal"):
         verify_sample(res, fraction=1.0)
+
+
+def test_t4_confirmation_set_is_registered_and_pairs_its_trackers():
+    """hpda-t4-confirm: its own seed; HPDA-PF at each prior and the strong hybrid are the
+    runs of run_hpda_trial on the same scans and particle streams."""
+    from trackcore.experiments.hpda_extensions import (
+        CONFIRM_RUNS,
+        CONFIRM_SEED,
+        HpdaConfirmConfig,
+    )
+
+    e = get("hpda-t4-confirm")
+    assert (e.runs, e.seed) == (CONFIRM_RUNS, CONFIRM_SEED)
+    assert CONFIRM_SEED not in {SEED + c for c in (1, 2, 3)}
+    assert e.config == HpdaConfirmConfig(1)
+    assert e.config.priors == (0.98, 0.99, 0.995)
+    with pytest.raises(ValueError, match="must be"):
+        HpdaConfirmConfig(1, algorithms=("hpda",))
+    res = run_experiment("hpda-t4-confirm", runs=1, seed=5,
+                         overrides={"priors": "0.98,0.995"}, write=False, progress=False)
+    for j, v in enumerate((0.98, 0.995)):
+        d = montecarlo.run(run_hpda_trial, 1, 5, args=(1, ("hpda", "clustering")),
+                           kwargs={"overrides": {"hpda": {"pi11": v}}})[0]
+        assert np.array_equal(res["hpda.count"][0, j], d["hpda"]["count"])
+        assert np.array_equal(res["clustering.count"][0], d["clustering"]["count"])
+    assert res["hpda.count"].dtype == np.int16 and res["hpda.count"].shape == (1, 2, 451)

@@ -152,3 +152,63 @@ def test_interval_text_formats_or_says_there_is_none():
 
     basic = Estimate(0.5, 0.4, 0.7, n=40, method="BCa bootstrap (basic: bias beyond BCa's range)")
     assert interval_text(lambda: basic) == NO_INTERVAL
+
+
+def test_per_run_error_and_the_measures_of_a_pair():
+    from trackcore.scenarios import count_error_ci
+    from trackcore.stats import paired_diff_ci
+
+    n_true = np.array([1.0, 2.0, 2.0])
+    counts = np.array([[1, 2, 3], [0, 2, 2]])
+    assert hb.per_run_error(counts, n_true).tolist() == [1 / 3, 1 / 3]
+    with pytest.raises(ValueError, match="counts must be"):
+        hb.per_run_error(counts[:, :2], n_true)
+    rng = np.random.default_rng(3)
+    truth = np.repeat([1.0, 2.0, 3.0], 10)
+    h = truth + rng.integers(-1, 2, size=(50, 30))
+    x = truth + rng.integers(-1, 3, size=(50, 30))
+    own, pair = hb.own_measures(x, truth), hb.paired_measures(h, x, truth)
+    assert list(own) == ["e", "ebc"] and list(pair) == ["de", "debc", "dabs"]
+    assert own["e"]() == count_error_ci(x, truth)
+    assert pair["de"]() == count_error_ci(h, truth, versus=x)
+    direct = paired_diff_ci(np.abs(h - truth).mean(1), np.abs(x - truth).mean(1))
+    assert pair["dabs"]() == direct
+
+
+def test_rerun_stored_reproduces_a_stored_run_or_raises():
+    from dataclasses import dataclass
+
+    from trackcore.experiments import Experiment, VerificationError, run_experiment
+
+    @dataclass(frozen=True)
+    class Toy:
+        mean: float = 1.0
+
+    toy = Experiment("toy-rerun", "normal draws",
+                     trial=lambda rng, mean, n=3: rng.normal(mean, size=n),
+                     call=lambda c: ((), {"mean": c.mean}),
+                     extract=lambda r, c: {"x": np.asarray(r, dtype=float)[:3]},
+                     config=Toy(), seed=11, runs=6, version="1")
+    res = run_experiment(toy, write=False, progress=False)
+    out = hb.rerun_stored(res, 4, n=5)  # extra trial arguments, the row still checked
+    assert out.shape == (5,) and np.array_equal(out[:3], res["x"][4])
+    res.columns["x"][2, 0] += 1.0
+    with pytest.raises(VerificationError, match="run 2"):
+        hb.rerun_stored(res, 2)
+    with pytest.raises(ValueError, match="run index"):
+        hb.rerun_stored(res, 6)
+
+
+def test_min_separation_and_the_printed_death_states():
+    xy = np.array([[[0.0, 0.0, 0, 0], [3.0, 4.0, 0, 0], [np.nan] * 4],
+                   [[0.0, 0.0, 0, 0], [0.0, 1.0, 0, 0], [0.0, 0.5, 0, 0]]])
+    alive = np.array([[True, True, False], [True, False, True]])
+    assert hb.min_separation(SimpleNamespace(states=xy, alive=alive)) == 0.5
+    lone = SimpleNamespace(states=xy, alive=np.array([[True, False, False]] * 2))
+    assert hb.min_separation(lone) == math.inf
+    truth, cv = hpda_truth("B"), hpda_truth("A")
+    for t in range(6):
+        d = truth.deaths[t]
+        assert np.allclose(cv.states[d, t, :2], hb.DEATHS_CV[t], atol=1e-6)
+        assert np.allclose(truth.states[d, t], hb.DEATHS_B[t], atol=0.06)
+    assert 2000 < hb.min_separation(truth) < 3000

@@ -43,6 +43,7 @@ from .registry import HPDA_SEED, HpdaMonteCarloConfig
 
 __all__ = [
     "HpdaBirthSweepConfig",
+    "HpdaConfirmConfig",
     "HpdaLadderConfig",
     "HpdaPriorSweepConfig",
     "HpdaTurnConfig",
@@ -376,6 +377,96 @@ for _name, _what, _over in (
             notebook=_NB,
         )
     )
+
+
+# ------------------------------------------------------ T4: the confirmation set
+#: T4's confirmation set (declared before its runs, issue 25): a seed of its own, no
+#: run of which is a run of the chapter's other stores, and enough paired runs to
+#: decide HPDA-PF against the strong clustering hybrid at every Pi_11.
+CONFIRM_SEED, CONFIRM_RUNS = 20261204, 1000
+
+
+@dataclass(frozen=True)
+class HpdaConfirmConfig(HpdaMonteCarloConfig):
+    """T4's confirmation set: HPDA-PF at every ``pi11`` in ``priors`` and the strong
+    clustering hybrid (which has no survival prior, so it runs once) on the same scans;
+    the other fields as in :class:`~trackcore.experiments.HpdaMonteCarloConfig`
+    (``algorithms`` must be ``("hpda", "clustering")``).
+
+    Examples
+    --------
+    >>> from trackcore.experiments.hpda_extensions import HpdaConfirmConfig
+    >>> HpdaConfirmConfig(1).priors
+    (0.98, 0.99, 0.995)
+    >>> HpdaConfirmConfig(1, algorithms=("hpda", "phd"))
+    Traceback (most recent call last):
+    ...
+    ValueError: algorithms of HpdaConfirmConfig must be ('hpda', 'clustering'), got ('hpda', 'phd')
+    """
+
+    algorithms: tuple = ("hpda", "clustering")
+    priors: tuple = (0.98, 0.99, 0.995)
+
+    _KINDS: ClassVar[dict] = {**HpdaMonteCarloConfig._KINDS, "priors": "floats"}
+
+    def __post_init__(self):
+        super().__post_init__()
+        if tuple(self.algorithms) != ("hpda", "clustering"):
+            raise ValueError(
+                f"algorithms of {type(self).__name__} must be ('hpda', 'clustering'), "
+                f"got {tuple(self.algorithms)}"
+            )
+        check_names(self.priors, "priors")
+        for v in self.priors:
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < 1:
+                raise ValueError(f"every prior must be a number in (0, 1), got {v!r}")
+
+
+def _confirm_trial(rng, case, priors, scenario_overrides=None):
+    """HPDA-PF at every prior in ``priors`` and the strong clustering hybrid once, all
+    on run ``i``'s scans: the first call runs both trackers (data stream, then HPDA-PF's,
+    then the hybrid's), the others HPDA-PF alone from a fresh copy of the generator (so
+    the same scans and the same particle stream). Returns ``(counts (P, K), counts (K,))``."""
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(f"rng must be a numpy Generator, got {type(rng).__name__}")
+    hpda, hybrid = [], None
+    for j, v in enumerate(priors):
+        algs = ("hpda", "clustering") if j == 0 else ("hpda",)
+        out = run_hpda_trial(_fresh(rng), case, algs, overrides={"hpda": {"pi11": v}},
+                             scenario_overrides=scenario_overrides)
+        hpda.append(out["hpda"]["count"])
+        if j == 0:
+            hybrid = out["clustering"]["count"]
+    return np.stack(hpda), hybrid
+
+
+def _confirm_call(config):
+    return (config.case, config.priors), {"scenario_overrides": config.scenario() or None}
+
+
+def _confirm_extract(out, config):
+    """HPDA-PF's count per prior and scan ``(priors, scans)`` and the hybrid's count per
+    scan, int16."""
+    hpda, hybrid = out
+    return {"hpda.count": _int16(hpda, "hpda"), "clustering.count": _int16(hybrid, "clustering")}
+
+
+register(
+    Experiment(
+        name="hpda-t4-confirm",
+        description="HPDA chapter, T4's confirmation set: HPDA-PF at Pi_11 = 0.98, 0.99, "
+        "0.995 and the strong clustering hybrid in case 1 on a seed of its own (counts "
+        "per scan)",
+        trial=_confirm_trial,
+        call=_confirm_call,
+        extract=_confirm_extract,
+        config=HpdaConfirmConfig(1),
+        seed=CONFIRM_SEED,
+        runs=CONFIRM_RUNS,
+        version="1",
+        notebook="book/000-hpda/06-monte-carlo.ipynb",
+    )
+)
 
 
 # ----------------------------------------------------------------------- T11b: turns

@@ -9,6 +9,7 @@ the public functions of ``trackcore``.
 """
 from __future__ import annotations
 
+import math
 import textwrap
 
 import numpy as np
@@ -268,3 +269,83 @@ def interval_text(fn, fmt: str = "+.3f") -> str:
     except ValueError:
         return NO_INTERVAL
     return NO_INTERVAL if "basic" in est.method else format(est, fmt)
+
+
+# ------------------------------------------------- 06, 07: the count measures of a pair
+def per_run_error(counts, n_true):
+    """Per run, the mean over scans of ``|N_hat_k - N_k|``: ``counts`` is
+    ``(runs, scans)``, ``n_true`` ``(scans,)``; returns ``(runs,)``."""
+    counts = np.asarray(counts, dtype=float)
+    n_true = np.asarray(n_true, dtype=float)
+    if counts.ndim != 2 or counts.shape[1] != n_true.shape[0]:
+        raise ValueError(f"counts must be (runs, {n_true.shape[0]}), got {counts.shape}")
+    return np.abs(counts - n_true).mean(axis=1)
+
+
+def own_measures(x, n_true):
+    """One tracker's count error, as zero-argument callables (for :func:`interval_text`):
+    ``{"e": e, "ebc": the bias-corrected e}`` of ``count_error_ci``."""
+    from .hpda_scenario import count_error_ci
+
+    return {"e": lambda: count_error_ci(x, n_true),
+            "ebc": lambda: count_error_ci(x, n_true, kind="e-bc")}
+
+
+def paired_measures(h, x, n_true):
+    """``h`` minus ``x`` on the same runs, as zero-argument callables (for
+    :func:`interval_text`): ``{"de": paired e, "debc": paired bias-corrected e,
+    "dabs": paired per-run count error}``."""
+    from ..stats import paired_diff_ci
+    from .hpda_scenario import count_error_ci
+
+    return {"de": lambda: count_error_ci(h, n_true, versus=x),
+            "debc": lambda: count_error_ci(h, n_true, kind="e-bc", versus=x),
+            "dabs": lambda: paired_diff_ci(per_run_error(h, n_true),
+                                           per_run_error(x, n_true))}
+
+
+# ---------------------------------------------------- 05: a stored run, re-simulated
+def rerun_stored(results, i, **extra):
+    """Run ``i`` of a stored experiment re-simulated by the experiment's own trial, from
+    the store's master seed and the run index (the generator ``montecarlo.run`` hands
+    run ``i``), with ``extra`` keyword arguments for the trial (e.g.
+    ``keep_estimates=True``); raises ``VerificationError`` unless the run's row equals
+    the stored one (:func:`~trackcore.experiments._core.compare_rows`). Returns the
+    trial's output."""
+    from ..core.rng import spawn_seed_sequences
+    from ..experiments._core import compare_rows
+
+    n = int(results.runs)
+    if not 0 <= int(i) < n:
+        raise ValueError(f"run index must lie in [0, {n}), got {i!r}")
+    e, config = results.experiment, results.config
+    args, kwargs = e.call(config)
+    rng = np.random.default_rng(spawn_seed_sequences(results.meta["seed"], n)[int(i)])
+    out = e.trial(rng, *args, **kwargs, **extra)
+    compare_rows(results.row(int(i)), e.extract(out, config), int(i))
+    return out
+
+
+# --------------------------------------------------------- 04: the truth's printed table
+#: Table 1's death positions of the constant-velocity truth (m) and of variant B
+#: (x, y in m, vx, vy in m/s; printed to 0.1 m and 0.001 m/s), per target.
+DEATHS_CV = ((0, -3000), (2500, 2500), (-3750, 2500), (500, -1000), (1750, 1750),
+             (4000, -3000))
+DEATHS_B = ((-1712.7, -2179.0, -0.228, 1.788), (213.7, 2275.7, -0.832, -1.144),
+            (-3236.1, 4619.0, 0.868, 0.704), (-1279.3, -769.9, -1.021, -0.720),
+            (3114.9, 1274.4, 0.333, -2.095), (2515.8, -1886.3, -1.458, -0.353))
+
+
+def min_separation(truth):
+    """The smallest distance (m) between two live targets of ``truth`` over all scans
+    (``inf`` when no two targets live at once)."""
+    xy, alive = truth.states[..., :2], truth.alive
+    best = math.inf
+    n = alive.shape[1]
+    for i in range(n):
+        for j in range(i + 1, n):
+            both = alive[:, i] & alive[:, j]
+            if both.any():
+                d = np.hypot(*(xy[both, i] - xy[both, j]).T)
+                best = min(best, float(np.min(d)))
+    return best
