@@ -1889,6 +1889,13 @@ def ratio_ci():
 
 
 @example()
+def paired_rate_diff_ci():
+    x = (np.arange(600) % 5 == 0).astype(float)
+    y = (np.arange(600) % 7 == 0).astype(float)
+    return call(x, y, level=0.95, n_boot=200, seed=0)
+
+
+@example()
 def bootstrap_ci():
     return call(np.median, _runs(1), paired=True, level=0.95, n_boot=200, seed=0)
 

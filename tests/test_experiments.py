@@ -269,5 +269,5 @@ def test_exec_stats_page_reads_verified_runs_from_outputs():
                                                   root / "book" / "_ext" / "exec_stats.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    assert mod.runs_verified(root / "book" / "000-hpda" / "06-monte-carlo.ipynb") == (30, 300)
+    assert mod.runs_verified(root / "book" / "000-hpda" / "06-monte-carlo.ipynb") == (40, 1300)
     assert mod.runs_verified(root / "book" / "000-hpda" / "01-model.ipynb") is None
