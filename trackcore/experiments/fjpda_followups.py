@@ -19,17 +19,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from ..scenarios.feature_metrics import scene_metrics
 from ._checks import check_finite, check_jitter, check_names
 from ._core import Experiment, register
-from .fjpda_readings import _FIELDS, FALSE_SOURCES, FJPDA_READINGS_SEED, READINGS_SCENES
+from .fjpda_readings import FJPDA_READINGS_SEED, READINGS_SCENES
 from .fjpda_templates import (
     FJPDA_MAP_SEED,
     FjpdaOcclusionMapConfig,
     _map_call,
     _map_extract,
+    metric_columns,
     occlusion_map_trial,
 )
 from .registry import _Config
@@ -100,14 +99,7 @@ def _threshold_call(config):
 def _threshold_extract(out, config):
     row = {}
     for label, m in out.items():
-        for field, dtype in _FIELDS.items():
-            row[f"{label}.{field}"] = dtype(getattr(m, field))
-        src = dict(m.false_sources)
-        if set(src) - set(FALSE_SOURCES):
-            raise ValueError(f"false-track sources {sorted(src)} are not among "
-                             f"FALSE_SOURCES {FALSE_SOURCES}")
-        for s in FALSE_SOURCES:
-            row[f"{label}.false_{s}"] = np.int64(src.get(s, 0))
+        metric_columns(row, label, m)
     return row
 
 

@@ -108,17 +108,22 @@ def _templates_call(config):
     return (config.scene, config.variants(), float(config.jitter)), {}
 
 
+def metric_columns(row, label, m):
+    """Add one tracker's scene metrics and its false tracks by source to a stored row."""
+    for field, dtype in _FIELDS.items():
+        row[f"{label}.{field}"] = dtype(getattr(m, field))
+    src = dict(m.false_sources)
+    if set(src) - set(FALSE_SOURCES):
+        raise ValueError(f"false-track sources {sorted(src)} are not among "
+                         f"FALSE_SOURCES {FALSE_SOURCES}")
+    for s in FALSE_SOURCES:
+        row[f"{label}.false_{s}"] = np.int64(src.get(s, 0))
+
+
 def _templates_extract(out, config):
     row = {}
     for label, (m, hota) in out.items():
-        for field, dtype in _FIELDS.items():
-            row[f"{label}.{field}"] = dtype(getattr(m, field))
-        src = dict(m.false_sources)
-        if set(src) - set(FALSE_SOURCES):
-            raise ValueError(f"false-track sources {sorted(src)} are not among "
-                             f"FALSE_SOURCES {FALSE_SOURCES}")
-        for s in FALSE_SOURCES:
-            row[f"{label}.false_{s}"] = np.int64(src.get(s, 0))
+        metric_columns(row, label, m)
         for name in HOTA_METRICS:
             row[f"{label}.hota_{name}"] = np.float64(hota[name])
     return row
