@@ -42,6 +42,17 @@ from ..models.measurement import wrap_angle_kernel
 from ..core.validation import (as_array, as_count, as_rng, as_nonnegative, as_positive,
                                as_probability, as_scalar)
 
+
+@nb.njit(cache=True)
+def _wrap_near(a):
+    """:func:`~trackcore.models.measurement.wrap_angle_kernel` bit for bit, without its
+    division for ``|a| <= 3``: there ``ceil((a - pi) / 2 pi)`` is 0 and the kernel returns
+    ``a - 0.0``, which is ``a`` (signed zeros included).  For the HPDA kernels' inner
+    loops, whose bearing differences are almost always small."""
+    if -3.0 <= a <= 3.0:
+        return a
+    return wrap_angle_kernel(a)
+
 __all__ = [
     "hpda_rank_probabilities",
     "hpda_false_rank_probabilities",
@@ -212,7 +223,7 @@ def _mixture_loglik_polar(rng_i, brg_i, z, Rinv, c, log_pt, log_pf_vg):
     """One particle's term of :func:`hpda_mixture_loglik_kernel` from its range
     ``rng_i`` and bearing ``brg_i`` (``c = -log(2 pi) - log|R| / 2``)."""
     r0 = z[0] - rng_i
-    r1 = wrap_angle_kernel(z[1] - brg_i)
+    r1 = _wrap_near(z[1] - brg_i)
     ll = c - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
                     + Rinv[1, 1] * r1 * r1)
     if math.isnan(ll):

@@ -42,12 +42,11 @@ import numpy as np
 from ..association.existence import ipda_existence_kernel, nn_existence_kernel
 from ..association.gating import gate_threshold
 from ..association.hpda import (_conditional_rank_from_q1, _log_q, _mixture_loglik_polar,
-                                hpda_existence_delta_kernel)
+                                _wrap_near, hpda_existence_delta_kernel)
 from ..association.pda import _pda_scratch, _pda_update_work
 from ..filters.particle import systematic_indices_kernel
 from ..core.validation import as_array, as_offsets, as_rng, as_scalar
-from ..models.measurement import (range_bearing_jacobian_kernel, range_bearing_kernel,
-                                  wrap_angle_kernel)
+from ..models.measurement import range_bearing_jacobian_kernel, wrap_angle_kernel
 
 __all__ = [
     "HpdaPfConfig",
@@ -398,7 +397,7 @@ def _particle_moments_polar(X, zhat, S, R, rng_, brg, rel):
     for i in range(N):
         rng_[i] = math.sqrt(X[i, 0] * X[i, 0] + X[i, 1] * X[i, 1])
         brg[i] = math.atan2(X[i, 1], X[i, 0])
-        rel[i] = wrap_angle_kernel(brg[i] - ref)
+        rel[i] = _wrap_near(brg[i] - ref)
         sr += rng_[i]
         sb += rel[i]
     mr = sr / N
@@ -428,7 +427,7 @@ def _bearing_window(bsorted, lo, hi):
     return i0, i1
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _gate_and_select(Zs, As, border, bsorted, zhat, S, g2, pd, pg, c, lam_xy, rule,
                      vidx, d2buf, ndens, pt, pf, q1cache):
     """Gate the scan, rank the validated returns by amplitude and select one.
@@ -473,7 +472,7 @@ def _gate_and_select(Zs, As, border, bsorted, zhat, S, g2, pd, pg, c, lam_xy, ru
             n0 = Zs[j, 0] - zhat[0]
             if n0 * n0 > rw2:
                 continue
-            n1 = wrap_angle_kernel(Zs[j, 1] - zhat[1])
+            n1 = _wrap_near(Zs[j, 1] - zhat[1])
             d2 = i00 * n0 * n0 + 2.0 * i01 * n0 * n1 + i11 * n1 * n1
             if d2 <= g2:
                 # insert, keeping the validated returns in decreasing amplitude
@@ -603,7 +602,7 @@ def _ipda_log_term(Zs, j, rr, bb, Rinv, shift):
     """``shift - d^2 / 2`` for return ``Zs[j]`` against range ``rr`` and bearing ``bb``
     (``d^2`` its squared Mahalanobis distance under ``Rinv``, bearing wrapped)."""
     r0 = Zs[j, 0] - rr
-    r1 = wrap_angle_kernel(Zs[j, 1] - bb)
+    r1 = _wrap_near(Zs[j, 1] - bb)
     return shift - 0.5 * (Rinv[0, 0] * r0 * r0 + 2.0 * Rinv[0, 1] * r0 * r1
                           + Rinv[1, 1] * r1 * r1)
 
@@ -671,11 +670,15 @@ def _polar_init(r, b, R, vstd, x, P):
     P[3, 3] = vstd * vstd
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _ekf_moments(X1, P, R, zhat, S, H3):
     """Predicted range-bearing measurement, Jacobian (``H3[0]``) and
     innovation covariance ``S = H P H^T + R`` of the EKF state ``X1`` (1, 4)."""
-    range_bearing_kernel(X1, 0.0, 0.0, zhat.reshape((1, 2)))
+    # range_bearing_kernel(X1, 0.0, 0.0, zhat.reshape((1, 2))) written out (no reshape)
+    dx = X1[0, 0] - 0.0
+    dy = X1[0, 1] - 0.0
+    zhat[0] = math.sqrt(dx * dx + dy * dy)
+    zhat[1] = math.atan2(dy, dx)
     range_bearing_jacobian_kernel(X1, 0.0, 0.0, H3)
     H = H3[0]
     for a in range(2):
@@ -687,7 +690,7 @@ def _ekf_moments(X1, P, R, zhat, S, H3):
             S[a, b] = s
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _cv_predict(x, P, T, Q, x_out, P_out):
     """Constant-velocity Kalman prediction ``x' = F x``, ``P' = F P F^T + Q`` for
     ``F = [[I, T I], [0, I]]``, written out (no temporaries) for the tentative
@@ -711,7 +714,7 @@ def _cv_predict(x, P, T, Q, x_out, P_out):
             P_out[j, i] = v
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _pda1_update(x, P, z, zhat, H, R, beta, x_out, P_out, K, A, W):
     """PDA update of an EKF (state (4,), measurement (2,)) with one validated
     measurement ``z`` of association probability ``beta`` (``beta_0 = 1 - beta``):
@@ -810,6 +813,13 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, Q_t, R, rng,
     zhat = np.zeros(2)
     S = np.zeros((2, 2))
     H3 = np.zeros((1, 2, 4))
+    H = np.zeros((2, 4))
+    xc = np.zeros(4)
+    Pc = np.zeros((4, 4))
+    xp = np.zeros(4)
+    Pp = np.zeros((4, 4))
+    x1 = np.zeros((1, 4))
+    zsel = np.zeros(2)
     Lc = np.zeros((4, 4))
     mmax = 1
     for k in range(K):
@@ -894,12 +904,23 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, Q_t, R, rng,
         for t in range(NT):
             if not tact[t]:
                 continue
-            _cv_predict(tx[t], tP[t], T, Q_t, xb, Pb)
-            tx[t, :] = xb
-            tP[t, :, :] = Pb
+            # the track's state goes through work arrays (scalar copies): no array views
+            # (each costs reference counting) in this loop over every tentative track
+            for a in range(4):
+                xc[a] = tx[t, a]
+                for b in range(4):
+                    Pc[a, b] = tP[t, a, b]
+            _cv_predict(xc, Pc, T, Q_t, xp, Pp)
+            for a in range(4):
+                tx[t, a] = xp[a]
+                x1[0, a] = xp[a]
+                for b in range(4):
+                    tP[t, a, b] = Pp[a, b]
             ppred = pi11 * tp[t] + pi12 * (1.0 - tp[t])
-            _ekf_moments(tx[t:t + 1], tP[t], R, zhat, S, H3)
-            H = H3[0]
+            _ekf_moments(x1, Pp, R, zhat, S, H3)
+            for a in range(2):
+                for b in range(4):
+                    H[a, b] = H3[0, a, b]
             m, js, beta, delta, pts, pfs, VG, s_u, s_h, s_nn = _gate_and_select(
                 Zs, As, border, bsorted, zhat, S, g2, pd, pg, c, lam_xy, rule, vidx, d2buf,
                 ndens, pt, pf, q1cache)
@@ -918,15 +939,18 @@ def _hpda_run_kernel(Z, A, off, prm, cum_tpm, Q_t, R, rng,
                     continue
                 selected[js] = True
                 if rule == 4:
-                    _ipda_ekf_update(tx[t], tP[t], Zs, vidx, m, zhat, H, R, pd, pd * pg,
+                    _ipda_ekf_update(xp, Pp, Zs, vidx, m, zhat, H, R, pd, pd * pg,
                                      lam_xy * zhat[0], ndens, zgbuf, betbuf, xb, Pb, nu_b,
                                      S_b, K_b, pda_work)
                 else:
                     # single-measurement PDA update of the EKF with beta^s
-                    _pda1_update(tx[t], tP[t], Zs[js], zhat, H, R, beta, xb, Pb, K_b, A_b,
-                                 W_b)
-                tx[t, :] = xb
-                tP[t, :, :] = Pb
+                    zsel[0] = Zs[js, 0]
+                    zsel[1] = Zs[js, 1]
+                    _pda1_update(xp, Pp, zsel, zhat, H, R, beta, xb, Pb, K_b, A_b, W_b)
+                for a in range(4):
+                    tx[t, a] = xb[a]
+                    for b in range(4):
+                        tP[t, a, b] = Pb[a, b]
             if tp[t] >= p_conf:
                 slot = -1
                 for u in range(NC):
