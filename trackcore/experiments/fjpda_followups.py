@@ -14,6 +14,15 @@ run is the same render and segmentation; JPDA and the four FJPDA cells of
 :data:`~trackcore.experiments.fjpda_templates.MAP_CELLS` at every memory of
 :data:`MAP_LONG_MEMORY` (6, 11 and 15 frames: one frame longer than the merges of 5, 10
 and 14 frames at the offsets 6, 4 and 2 px).  Rows as in ``fjpda-occlusion-map``.
+
+``fjpda-confirm-s1-jitter5`` and ``fjpda-confirm-s1-jitter3``: the confirmation of the
+false tracks FJPDA - JPDA in the S1 layout (issue 29, session 10).  The configuration,
+trial and rows of ``fjpda-readings-s1-jitter5`` / ``-jitter3`` (JPDA and the four reading
+cells on the same detections), on fresh master seeds (:data:`FJPDA_CONFIRM_SEED` + i for
+the i-th key of :data:`CONFIRM_SCENES`) and :data:`CONFIRM_RUNS` runs: at 150 seeds a
+replication's 95 % intervals of the sliding cells were about 0.10 per sequence wide on
+each side under 5 px and 0.06-0.08 under 3 px; intervals narrow as 1/sqrt(n), so 600
+runs give about 0.05 and 0.04, enough to decide a difference of about 0.05.
 """
 from __future__ import annotations
 
@@ -22,7 +31,14 @@ from dataclasses import dataclass
 from ..scenarios.feature_metrics import scene_metrics
 from ._checks import check_finite, check_jitter, check_names
 from ._core import Experiment, register
-from .fjpda_readings import FJPDA_READINGS_SEED, READINGS_SCENES
+from .fjpda_readings import (
+    FJPDA_READINGS_SEED,
+    READINGS_SCENES,
+    FjpdaReadingsConfig,
+    _call,
+    _extract,
+    readings_trial,
+)
 from .fjpda_templates import (
     FJPDA_MAP_SEED,
     FjpdaOcclusionMapConfig,
@@ -33,7 +49,8 @@ from .fjpda_templates import (
 )
 from .registry import _Config
 
-__all__ = ["MAP_LONG_MEMORY", "S3_LOW_THRESHOLDS", "FjpdaS3ThresholdConfig"]
+__all__ = ["CONFIRM_RUNS", "CONFIRM_SCENES", "FJPDA_CONFIRM_SEED", "MAP_LONG_MEMORY",
+           "S3_LOW_THRESHOLDS", "FjpdaS3ThresholdConfig"]
 
 #: the c_I values of the extended S3 sweep (the readings store ran 0.4 to 0.8)
 S3_LOW_THRESHOLDS = (0.3, 0.2)
@@ -121,3 +138,19 @@ register(Experiment(
     trial=occlusion_map_trial, call=_map_call, extract=_map_extract,
     config=FjpdaOcclusionMapConfig(memory=MAP_LONG_MEMORY), seed=FJPDA_MAP_SEED, runs=40,
     version="1", notebook=_NB))
+
+#: the scenes of the S1 confirmation runs (keys of READINGS_SCENES), in seed order
+CONFIRM_SCENES = ("s1-jitter5", "s1-jitter3")
+#: runs per confirmation scene (declared from the replication's interval widths)
+CONFIRM_RUNS = 600
+#: master seed of the confirmation runs (fresh: no other experiment uses it)
+FJPDA_CONFIRM_SEED = 20160325 + 400
+for _i, _key in enumerate(CONFIRM_SCENES):
+    _config = FjpdaReadingsConfig(*READINGS_SCENES[_key])
+    register(Experiment(
+        name=f"fjpda-confirm-{_key}",
+        description=(f"Feature-JPDA chapter, confirmation of the false tracks in {_key} "
+                     f"at {CONFIRM_RUNS} fresh seeds: "
+                     f"{', '.join(_config.variants())} on the same detections"),
+        trial=readings_trial, call=_call, extract=_extract, config=_config,
+        seed=FJPDA_CONFIRM_SEED + _i, runs=CONFIRM_RUNS, version="1", notebook=_NB))
