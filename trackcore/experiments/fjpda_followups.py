@@ -28,6 +28,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..scenarios.feature_metrics import scene_metrics
 from ._checks import check_finite, check_jitter, check_names
 from ._core import Experiment, register
@@ -50,7 +52,7 @@ from .fjpda_templates import (
 from .registry import _Config
 
 __all__ = ["CONFIRM_RUNS", "CONFIRM_SCENES", "FJPDA_CONFIRM_SEED", "MAP_LONG_MEMORY",
-           "S3_LOW_THRESHOLDS", "FjpdaS3ThresholdConfig"]
+           "S3_LOW_THRESHOLDS", "FjpdaS3ThresholdConfig", "count_word", "confirm_rows"]
 
 #: the c_I values of the extended S3 sweep (the readings store ran 0.4 to 0.8)
 S3_LOW_THRESHOLDS = (0.3, 0.2)
@@ -154,3 +156,61 @@ for _i, _key in enumerate(CONFIRM_SCENES):
                      f"{', '.join(_config.variants())} on the same detections"),
         trial=readings_trial, call=_call, extract=_extract, config=_config,
         seed=FJPDA_CONFIRM_SEED + _i, runs=CONFIRM_RUNS, version="1", notebook=_NB))
+
+
+def count_word(c):
+    """How a comparison of counts (lower is better, A against B) reads in prose: "fewer"
+    or "more" (A than B) when its interval decides, "a tie" when the interval contains
+    0, "no interval" when there is none; never typed by hand.
+
+    Examples
+    --------
+    >>> from trackcore.experiments.fjpda_readings import compare
+    >>> rng = np.random.default_rng(1)
+    >>> x = rng.poisson(1.0, 200)
+    >>> y = x + rng.poisson(0.5, 200)
+    >>> count_word(compare(x, y, ("FJPDA", "JPDA"))), count_word(compare(y, x))
+    ('fewer', 'more')
+    >>> count_word(compare(x, x + rng.choice([-1, 1], 200)))
+    'a tie'
+    """
+    if c.verdict == "tie":
+        return "a tie"
+    if c.verdict == f"{c.a} better":
+        return "fewer"
+    if c.verdict == f"{c.b} better":
+        return "more"
+    return "no interval"
+
+
+def confirm_rows(stores, readings_cells):
+    """The S1 confirmation: per store key of :data:`CONFIRM_SCENES` and reading cell of
+    :data:`~trackcore.experiments.fjpda_readings.CELLS`, false tracks FJPDA - JPDA on
+    the confirmation runs (``stores``: key -> Results or column dict).  Returns
+    ``{(scene_key, cell): comparison}`` and table rows (key, tracker, 200-seed
+    difference from ``readings_cells[scene_key, cell, "false"]`` if present, the
+    confirmation's difference, its reading by :func:`count_word`).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(2)
+    >>> j = rng.poisson(1.0, 60)
+    >>> cols = {f"{t}.false_tracks": j - (t != "JPDA") * (j > 0) for t in
+    ...         ("JPDA", "FJPDA", "FJPDA, canvas, fixed", "FJPDA, sliding, updated",
+    ...          "FJPDA, sliding, fixed")}
+    >>> conf, rows = confirm_rows({"s1-jitter5": cols}, {})
+    >>> sorted(conf)[:2], rows[0][2], rows[0][4]
+    ([('j5', 'cf'), ('j5', 'cu')], '-', 'fewer')
+    """
+    from .fjpda_readings import CELLS, SCENE_KEYS, compare, per_run
+
+    conf, rows = {}, []
+    for key, res in stores.items():
+        s = SCENE_KEYS[key]
+        for cell, tracker in CELLS.items():
+            x, y = (per_run(res, t, "false_tracks") for t in (tracker, "JPDA"))
+            c = conf[s, cell] = compare(x, y, (tracker, "JPDA"), True)
+            old = readings_cells.get((s, cell, "false"))
+            rows.append((key, tracker, "-" if old is None else format(old.diff, ".2g"),
+                         format(c.diff, ".2g"), count_word(c)))
+    return conf, rows
