@@ -6,7 +6,11 @@ import numpy as np
 import pytest
 
 from trackcore.experiments import get, load, status
+from trackcore.experiments import names
 from trackcore.experiments.fjpda_followups import (
+    CONFIRM_RUNS,
+    CONFIRM_SCENES,
+    FJPDA_CONFIRM_SEED,
     MAP_LONG_MEMORY,
     S3_LOW_THRESHOLDS,
     FjpdaS3ThresholdConfig,
@@ -26,6 +30,17 @@ def test_registry_pairs_with_the_stores_it_extends():
     assert all(any(mem >= k for mem in MAP_LONG_MEMORY) for k in merges)
     labels = list(m.config.variants())
     assert len(labels) == len(MAP_LONG_MEMORY) * (1 + len(MAP_CELLS)), labels
+
+
+def test_confirmation_runs_are_the_readings_runs_on_fresh_seeds():
+    seeds = {get(n).seed for n in names() if n.startswith("fjpda-")
+             and not n.startswith("fjpda-confirm-")}
+    for i, key in enumerate(CONFIRM_SCENES):
+        c, r = get(f"fjpda-confirm-{key}"), get(f"fjpda-readings-{key}")
+        assert c.config == r.config and c.trial is r.trial and c.extract is r.extract
+        assert (c.seed, c.runs) == (FJPDA_CONFIRM_SEED + i, CONFIRM_RUNS)
+        assert c.seed not in seeds, "the confirmation seeds must be fresh"
+    assert CONFIRM_RUNS >= 4 * 150  # the replication's intervals halved
 
 
 def test_threshold_config():

@@ -14,15 +14,33 @@ run is the same render and segmentation; JPDA and the four FJPDA cells of
 :data:`~trackcore.experiments.fjpda_templates.MAP_CELLS` at every memory of
 :data:`MAP_LONG_MEMORY` (6, 11 and 15 frames: one frame longer than the merges of 5, 10
 and 14 frames at the offsets 6, 4 and 2 px).  Rows as in ``fjpda-occlusion-map``.
+
+``fjpda-confirm-s1-jitter5`` and ``fjpda-confirm-s1-jitter3``: the confirmation of the
+false tracks FJPDA - JPDA in the S1 layout (issue 29, session 10).  The configuration,
+trial and rows of ``fjpda-readings-s1-jitter5`` / ``-jitter3`` (JPDA and the four reading
+cells on the same detections), on fresh master seeds (:data:`FJPDA_CONFIRM_SEED` + i for
+the i-th key of :data:`CONFIRM_SCENES`) and :data:`CONFIRM_RUNS` runs: at 150 seeds a
+replication's 95 % intervals of the sliding cells were about 0.10 per sequence wide on
+each side under 5 px and 0.06-0.08 under 3 px; intervals narrow as 1/sqrt(n), so 600
+runs give about 0.05 and 0.04, enough to decide a difference of about 0.05.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..scenarios.feature_metrics import scene_metrics
 from ._checks import check_finite, check_jitter, check_names
 from ._core import Experiment, register
-from .fjpda_readings import FJPDA_READINGS_SEED, READINGS_SCENES
+from .fjpda_readings import (
+    FJPDA_READINGS_SEED,
+    READINGS_SCENES,
+    FjpdaReadingsConfig,
+    _call,
+    _extract,
+    readings_trial,
+)
 from .fjpda_templates import (
     FJPDA_MAP_SEED,
     FjpdaOcclusionMapConfig,
@@ -33,7 +51,8 @@ from .fjpda_templates import (
 )
 from .registry import _Config
 
-__all__ = ["MAP_LONG_MEMORY", "S3_LOW_THRESHOLDS", "FjpdaS3ThresholdConfig"]
+__all__ = ["CONFIRM_RUNS", "CONFIRM_SCENES", "FJPDA_CONFIRM_SEED", "MAP_LONG_MEMORY",
+           "S3_LOW_THRESHOLDS", "FjpdaS3ThresholdConfig", "count_word", "confirm_rows"]
 
 #: the c_I values of the extended S3 sweep (the readings store ran 0.4 to 0.8)
 S3_LOW_THRESHOLDS = (0.3, 0.2)
@@ -121,3 +140,77 @@ register(Experiment(
     trial=occlusion_map_trial, call=_map_call, extract=_map_extract,
     config=FjpdaOcclusionMapConfig(memory=MAP_LONG_MEMORY), seed=FJPDA_MAP_SEED, runs=40,
     version="1", notebook=_NB))
+
+#: the scenes of the S1 confirmation runs (keys of READINGS_SCENES), in seed order
+CONFIRM_SCENES = ("s1-jitter5", "s1-jitter3")
+#: runs per confirmation scene (declared from the replication's interval widths)
+CONFIRM_RUNS = 600
+#: master seed of the confirmation runs (fresh: no other experiment uses it)
+FJPDA_CONFIRM_SEED = 20160325 + 400
+for _i, _key in enumerate(CONFIRM_SCENES):
+    _config = FjpdaReadingsConfig(*READINGS_SCENES[_key])
+    register(Experiment(
+        name=f"fjpda-confirm-{_key}",
+        description=(f"Feature-JPDA chapter, confirmation of the false tracks in {_key} "
+                     f"at {CONFIRM_RUNS} fresh seeds: "
+                     f"{', '.join(_config.variants())} on the same detections"),
+        trial=readings_trial, call=_call, extract=_extract, config=_config,
+        seed=FJPDA_CONFIRM_SEED + _i, runs=CONFIRM_RUNS, version="1", notebook=_NB))
+
+
+def count_word(c):
+    """How a comparison of counts (lower is better, A against B) reads in prose: "fewer"
+    or "more" (A than B) when its interval decides, "a tie" when the interval contains
+    0, "no interval" when there is none; never typed by hand.
+
+    Examples
+    --------
+    >>> from trackcore.experiments.fjpda_readings import compare
+    >>> rng = np.random.default_rng(1)
+    >>> x = rng.poisson(1.0, 200)
+    >>> y = x + rng.poisson(0.5, 200)
+    >>> count_word(compare(x, y, ("FJPDA", "JPDA"))), count_word(compare(y, x))
+    ('fewer', 'more')
+    >>> count_word(compare(x, x + rng.choice([-1, 1], 200)))
+    'a tie'
+    """
+    if c.verdict == "tie":
+        return "a tie"
+    if c.verdict == f"{c.a} better":
+        return "fewer"
+    if c.verdict == f"{c.b} better":
+        return "more"
+    return "no interval"
+
+
+def confirm_rows(stores, readings_cells):
+    """The S1 confirmation: per store key of :data:`CONFIRM_SCENES` and reading cell of
+    :data:`~trackcore.experiments.fjpda_readings.CELLS`, false tracks FJPDA - JPDA on
+    the confirmation runs (``stores``: key -> Results or column dict).  Returns
+    ``{(scene_key, cell): comparison}`` and table rows (key, tracker, 200-seed
+    difference from ``readings_cells[scene_key, cell, "false"]`` if present, the
+    confirmation's difference, its reading by :func:`count_word`).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(2)
+    >>> j = rng.poisson(1.0, 60)
+    >>> cols = {f"{t}.false_tracks": j - (t != "JPDA") * (j > 0) for t in
+    ...         ("JPDA", "FJPDA", "FJPDA, canvas, fixed", "FJPDA, sliding, updated",
+    ...          "FJPDA, sliding, fixed")}
+    >>> conf, rows = confirm_rows({"s1-jitter5": cols}, {})
+    >>> sorted(conf)[:2], rows[0][2], rows[0][4]
+    ([('j5', 'cf'), ('j5', 'cu')], '-', 'fewer')
+    """
+    from .fjpda_readings import CELLS, SCENE_KEYS, compare, per_run
+
+    conf, rows = {}, []
+    for key, res in stores.items():
+        s = SCENE_KEYS[key]
+        for cell, tracker in CELLS.items():
+            x, y = (per_run(res, t, "false_tracks") for t in (tracker, "JPDA"))
+            c = conf[s, cell] = compare(x, y, (tracker, "JPDA"), True)
+            old = readings_cells.get((s, cell, "false"))
+            rows.append((key, tracker, "-" if old is None else format(old.diff, ".2g"),
+                         format(c.diff, ".2g"), count_word(c)))
+    return conf, rows
