@@ -115,6 +115,58 @@ def effect_verdict(est, margin, helpful):
     return "undecided"
 
 
+def fss_n_star(diffs, ns):
+    """The FSS test's N* on one set of runs, by the chapter's declared rule (claims.yml,
+    ``sprt-fss-saving``): ``diffs[i]`` is the paired interval of FSS(``ns[i]``) success
+    minus the SPRT's (an Estimate, ``ns`` increasing). Returns ``(lo, value, hi)``: ``lo``
+    the smallest N whose interval does not lie wholly below 0 (the FSS test is not shown
+    short of the SPRT), ``value`` the smallest N whose estimate is >= 0, ``hi`` the
+    smallest N whose interval lies wholly above 0 (shown ahead); None where no N of
+    ``ns`` qualifies. N* is the first N that reaches the SPRT: on a non-monotone curve a
+    larger N can fall short of it again, which N* does not undo (the text reports it).
+
+    Examples
+    --------
+    >>> from trackcore.stats import Estimate
+    >>> from trackcore.scenarios._sprt_book import fss_n_star
+    >>> e = lambda v, lo, hi: Estimate(v, lo, hi, 0.95, 20000, "t")
+    >>> fss_n_star([e(-.05, -.06, -.04), e(-.001, -.004, .002), e(.004, .001, .007),
+    ...             e(-.02, -.03, -.01)], [1, 2, 3, 4])
+    (2, 3, 3)
+    """
+    ns = list(ns)
+    if len(ns) != len(diffs) or ns != sorted(set(ns)):
+        raise ValueError(f"ns must be increasing and match diffs, got {ns!r}")
+    lo = next((n for n, d in zip(ns, diffs) if not d.hi < 0), None)
+    value = next((n for n, d in zip(ns, diffs) if d.value >= 0), None)
+    hi = next((n for n, d in zip(ns, diffs) if d.lo > 0), None)
+    return lo, value, hi
+
+
+def fss_saving(n_star, ek):
+    """The saving N* / E[k] (an Estimate) from ``n_star = (lo, value, hi)`` of
+    :func:`fss_n_star` and the SPRT's mean decision scan ``ek`` (an Estimate): value
+    ``value / ek.value``, interval ``[lo / ek.hi, hi / ek.lo]`` (the ends of N* against
+    the ends of E[k]; the ends of N* come from per-N 95 % intervals, without a
+    multiplicity correction). None when an end of N* is missing (no N of the curve
+    reaches, or is shown ahead of, the SPRT).
+
+    Examples
+    --------
+    >>> from trackcore.stats import Estimate
+    >>> from trackcore.scenarios._sprt_book import fss_saving
+    >>> f"{fss_saving((7, 7, 8), Estimate(5.0, 4.9, 5.1, 0.95, 100, 't')):.3f}"
+    '1.400 [1.373, 1.633]'
+    """
+    from ..stats import Estimate
+
+    lo, value, hi = n_star
+    if lo is None or value is None or hi is None:
+        return None
+    return Estimate(value / ek.value, lo / ek.hi, hi / ek.lo, ek.level, ek.n,
+                    "N* / E[k], ends of N* (per-N paired intervals) over ends of E[k]")
+
+
 def geometry_tag(alpha, lead):
     """The glue-key tag of a geometry (target course ``alpha``, pursuer lead ``lead``,
     degrees), as 06-sensitivity names the family's cells: ``(33.8, -15)`` is
