@@ -167,6 +167,30 @@ def fss_saving(n_star, ek):
                     "N* / E[k], ends of N* (per-N paired intervals) over ends of E[k]")
 
 
+def fss_curve(d, k, fss_ok, ns):
+    """The FSS curve of one cell beside the SPRT on the same runs (04-fixed-sample-size):
+    ``d``, ``k`` the SPRT's decisions (0: right, 1: wrong, -1: undecided) and scans, and
+    ``fss_ok`` a (runs, len(ns)) array, 1 where the FSS test with ``ns[i]`` scans decides
+    right. Returns ``{"success": the SPRT's success (rate_ci), "ek": its mean decision
+    scan over the decided runs (mean_ci), "diffs": FSS(N) minus SPRT success per N
+    (paired_rate_diff_ci), "n_star": fss_n_star, "saving": fss_saving, "short_after": the
+    N beyond N*'s upper end whose FSS test is shown short of the SPRT again}``."""
+    from ..stats import mean_ci, paired_rate_diff_ci, rate_ci
+
+    d, k, fss_ok = np.asarray(d), np.asarray(k), np.asarray(fss_ok)
+    if d.ndim != 1 or k.shape != d.shape or fss_ok.shape != (d.size, len(ns)):
+        raise ValueError(f"shapes d {d.shape}, k {k.shape}, fss_ok {fss_ok.shape} do "
+                         f"not match {len(ns)} N")
+    ok = (d == 0).astype(float)
+    diffs = [paired_rate_diff_ci(fss_ok[:, i].astype(float), ok) for i in range(len(ns))]
+    ek = mean_ci(k[d >= 0].astype(float))
+    n_star = fss_n_star(diffs, ns)
+    after = [n for n, e in zip(ns, diffs)
+             if n_star[2] is not None and n > n_star[2] and e.hi < 0]
+    return {"success": rate_ci(int(ok.sum()), d.size), "ek": ek, "diffs": diffs,
+            "n_star": n_star, "saving": fss_saving(n_star, ek), "short_after": after}
+
+
 def geometry_tag(alpha, lead):
     """The glue-key tag of a geometry (target course ``alpha``, pursuer lead ``lead``,
     degrees), as 06-sensitivity names the family's cells: ``(33.8, -15)`` is
