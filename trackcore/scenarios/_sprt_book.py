@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from ..stats import paired_rate_diff_ci  # noqa: F401  (notebook 04 imports it from here)
+from ..stats import paired_rate_diff_ci  # (also imported by notebook 04 from here)
 
 __all__: list[str] = []  # private: nothing is re-exported
 
@@ -175,7 +175,7 @@ def fss_curve(d, k, fss_ok, ns):
     scan over the decided runs (mean_ci), "diffs": FSS(N) minus SPRT success per N
     (paired_rate_diff_ci), "n_star": fss_n_star, "saving": fss_saving, "short_after": the
     N beyond N*'s upper end whose FSS test is shown short of the SPRT again}``."""
-    from ..stats import mean_ci, paired_rate_diff_ci, rate_ci
+    from ..stats import mean_ci, rate_ci
 
     d, k, fss_ok = np.asarray(d), np.asarray(k), np.asarray(fss_ok)
     if d.ndim != 1 or k.shape != d.shape or fss_ok.shape != (d.size, len(ns)):
