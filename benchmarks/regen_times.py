@@ -76,7 +76,9 @@ def measure(name: str) -> dict:
         "sample": done,
         "cpu_seconds_sample": [round(c, 4) for c in cpu],
         "cpu_per_run": round(per_run, 5),
-        "cpu_estimate": round(per_run * runs, 1),
+        # from the rounded per-run cost, so that the record is consistent with itself
+        # (tests/test_run_counts.py) also for cheap runs times many runs
+        "cpu_estimate": round(round(per_run, 5) * runs, 1),
         "warm_up_wall": round(warm, 2),
         "store_wall_seconds": res.meta.get("wall_seconds"),
         "store_executor": res.meta.get("executor"),

@@ -148,3 +148,30 @@ def test_a_corrupted_stored_row_is_caught(tmp_path):
     assert good.checked == 1, good
     with pytest.raises(VerificationError, match=r"run 7, column 'k'\[1\]"):
         verify_sample(load(name, path=bad), indices=[6, 7])
+
+
+def test_fss_curve_and_calib_ga_are_registered_as_declared():
+    from trackcore.experiments.sprt import CALIB_GEOMETRIES, FSS_CURVE_NS
+
+    e = get("sprt-fss-curve-s1")
+    assert (e.seed, e.runs, len(e.config.cells)) == (SEED + 7000, 20000, 6), e
+    assert e.config.cells == tuple(family_cell(1, *g) for g in CALIB_GEOMETRIES)
+    assert FSS_CURVE_NS == tuple(range(1, 17))
+    e = get("sprt-calib-ga")
+    assert (e.seed, e.runs, e.config.cells) == (SEED + 8000, 60000,
+                                                 ("alpha_deg=45.0;lead_deg=0.0",)), e
+
+
+def test_fss_curve_rows_are_the_batch():
+    from trackcore.experiments.sprt import FSS_CURVE_NS
+
+    cells = ("alpha_deg=45.0;lead_deg=0.0", "alpha_deg=45.0;lead_deg=15.0")
+    res = run_experiment("sprt-fss-curve-s1", runs=3, seed=SEED + 77,
+                         overrides={"cells": cells}, write=False, progress=False)
+    for j, cell in enumerate(cells):
+        sc = sprt_acm_scenario(1, alpha_deg=45.0, lead_deg=float(cell.split("=")[-1]))
+        b = sprt_acm_monte_carlo(sc, 3, SEED + 77)
+        d, k = sprt_decide(b.llr, -sc.gamma, sc.gamma)
+        assert np.array_equal(res["d"][:, j], d) and np.array_equal(res["k"][:, j], k)
+        for n in FSS_CURVE_NS:
+            assert np.array_equal(res[f"fss{n}_h0"][:, j], b.llr[:, n - 1] < 0), (cell, n)

@@ -78,11 +78,20 @@ def test_parse_estimate_rejects_text_without_a_sound_interval(text):
                               "margin": 0.01}, "not reproduced"),
     ((0.001, -0.02, 0.006), {"type": "direction", "expect": "below", "ref": 0,
                              "margin": 0.01}, "undecided"),
-    # a decided improvement, however small, holds: direction is checked before the margin
+    # equivalence is checked first: a decided improvement inside the declared margin is no
+    # improvement (the SPRT chapter's cause rule, the same in its helper effect_verdict) ...
     ((-0.006, -0.010, -0.002), {"type": "direction", "expect": "below", "ref": 0,
-                                "margin": 0.02}, "reproduced"),
+                                "margin": 0.02}, "not reproduced"),
     ((0.006, 0.002, 0.010), {"type": "direction", "expect": "below", "ref": 0,
                              "margin": 0.02}, "not reproduced"),
+    # ... and one that reaches beyond the margin holds
+    ((-0.02, -0.03, -0.002), {"type": "direction", "expect": "below", "ref": 0,
+                              "margin": 0.02}, "reproduced"),
+    ((0.02, 0.002, 0.03), {"type": "direction", "expect": "below", "ref": 0,
+                           "margin": 0.02}, "not reproduced"),
+    # without a margin a small decided gain holds
+    ((-0.006, -0.010, -0.002), {"type": "direction", "expect": "below", "ref": 0},
+     "reproduced"),
     # bands around the paper's number
     ((0.10, 0.08, 0.12), {"type": "band", "paper": 0.1, "tol": 0.05}, "reproduced"),
     ((0.13, 0.11, 0.14), {"type": "band", "paper": 0.1, "tol": 0.05},
@@ -94,6 +103,26 @@ def test_parse_estimate_rejects_text_without_a_sound_interval(text):
 ])
 def test_decide(est, rule, verdict):
     assert scorecard.decide(rule, est) == verdict
+
+
+def test_direction_with_margin_is_the_sprt_cause_rule():
+    """The registry's direction rule with a margin and the SPRT chapter's effect_verdict
+    (06-sensitivity) decide every interval alike: equivalence first, then direction."""
+    from trackcore.scenarios._sprt_book import effect_verdict
+    from trackcore.stats import Estimate
+
+    as_registry = {"none": "not reproduced", "hurts": "not reproduced",
+                   "helps": "reproduced", "undecided": "undecided"}
+    ends = (-0.05, -0.02, -0.01, -0.001, 0.0, 0.001, 0.01, 0.02, 0.05)
+    for lo in ends:
+        for hi in ends:
+            if hi < lo:
+                continue
+            est = Estimate((lo + hi) / 2, lo, hi, 0.95, 5000, "t")
+            for expect in ("above", "below"):
+                rule = {"type": "direction", "expect": expect, "ref": 0, "margin": 0.02}
+                got = scorecard.decide(rule, (est.value, lo, hi))
+                assert got == as_registry[effect_verdict(est, 0.02, expect)], (lo, hi, expect)
 
 
 def test_combinations():

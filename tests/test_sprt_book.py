@@ -122,3 +122,36 @@ def test_paired_rate_diff_ci_matches_the_stats_helper():
     assert small == paired_diff_ci(x[:100], y[:100]), "below BCA_RUNS: the helper itself"
     with pytest.raises(ValueError, match="0/1"):
         paired_rate_diff_ci(x + 0.5, y)
+
+
+def test_fss_n_star_is_the_first_reach_on_a_non_monotone_curve():
+    from trackcore.stats import Estimate
+
+    e = lambda v, lo, hi: Estimate(v, lo, hi, 0.95, 1000, "t")
+    # short, tie, ahead, short again, ahead: N* is the first reach (2 [2, 3])
+    diffs = [e(-.05, -.06, -.04), e(-.001, -.004, .002), e(.02, .01, .03),
+             e(-.02, -.03, -.01), e(.05, .04, .06)]
+    assert sb.fss_n_star(diffs, [1, 2, 3, 4, 5]) == (2, 3, 3)
+    assert sb.fss_n_star(diffs[:1], [1]) == (None, None, None)
+    with pytest.raises(ValueError):
+        sb.fss_n_star(diffs, [1, 2, 3, 5, 4])
+    ek = Estimate(5.0, 4.0, 6.0, 0.95, 1000, "t")
+    s = sb.fss_saving((2, 3, 3), ek)
+    assert (s.value, s.lo, s.hi) == (0.6, 2 / 6, 3 / 4), s
+    assert sb.fss_saving((2, 3, None), ek) is None
+
+
+def test_fss_curve_on_constructed_runs():
+    rng = np.random.default_rng(5)
+    n = 4000
+    d = np.where(rng.random(n) < 0.9, 0, 1).astype(np.int8)   # SPRT right in 90 %
+    k = rng.integers(3, 8, n).astype(np.int16)
+    ps = [0.6, 0.9, 0.99, 0.7, 0.999]          # FSS right: short, tie, ahead, short, ahead
+    fss = np.stack([(rng.random(n) < p) for p in ps], axis=1).astype(np.int8)
+    out = sb.fss_curve(d, k, fss, [1, 2, 3, 4, 5])
+    assert out["n_star"][0] in (2, 3) and out["n_star"][2] == 3, out["n_star"]
+    assert out["short_after"] == [4], out["short_after"]
+    assert abs(out["ek"].value - k.mean()) < 1e-12
+    assert out["saving"].lo <= out["saving"].value <= out["saving"].hi
+    with pytest.raises(ValueError):
+        sb.fss_curve(d, k, fss[:, :4], [1, 2, 3, 4, 5])

@@ -46,11 +46,13 @@ Rules (numbers are in the units the glued value prints; a rule whose glued value
 * ``{type: direction, expect: below|above, ref: r, margin: m}``: the claim holds when the
   whole interval lies below (above) ``ref`` (given explicitly: 0 for a difference, 1 or 100 %
   for a ratio), however small the gain; it fails when the whole interval lies on the other
-  side.  An interval that contains ``ref`` is undecided (a tie), unless the claim declared an
-  equivalence ``margin`` before its runs and the whole interval lies inside
-  ``[ref - m, ref + m]``: a demonstrated equivalence refutes a "better than" claim.  Direction
-  is checked first, so a decided gain smaller than the margin still holds.  A claim that
-  states a size ("20 % better") is a band, not a direction.
+  side.  An interval that contains ``ref`` is undecided (a tie).  A claim may declare an
+  equivalence ``margin`` before its runs: then an interval that lies wholly inside
+  ``[ref - m, ref + m]`` fails, a demonstrated equivalence refuting a "better than" claim.
+  Equivalence is checked first, so a gain decided on many runs but smaller than the margin
+  fails too (the equivalence-first rule of the SPRT chapter's cause factorial; without a
+  margin nothing changes).  A claim that states a size ("20 % better") is a band, not a
+  direction.
 * ``{type: band, paper: p, lo: a, hi: b}`` (or ``tol: t`` for ``p ± t``, ``rel_tol: r`` for
   ``p (1 ± r)``; either end may be left open): *reproduced* when the whole interval lies in the
   band and contains ``p`` (or no ``p`` is given), *reproduced within tolerance* when it lies in
@@ -208,13 +210,13 @@ def decide(rule: dict, est: tuple[float, float, float]) -> str:
     kind = rule.get("type")
     if kind == "direction":
         ref = float(rule["ref"])
+        margin = rule.get("margin")
+        if margin is not None and ref - float(margin) <= lo and hi <= ref + float(margin):
+            return "not reproduced"   # equivalence shown inside the declared margin (first)
         below, above = hi < ref, lo > ref
         if below or above:
             holds = below if rule["expect"] == "below" else above
             return "reproduced" if holds else "not reproduced"
-        margin = rule.get("margin")
-        if margin is not None and ref - float(margin) <= lo and hi <= ref + float(margin):
-            return "not reproduced"   # equivalence shown inside the declared margin
         return "undecided"
     if kind == "band":
         b_lo, b_hi = band_ends(rule)

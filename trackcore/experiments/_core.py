@@ -362,8 +362,10 @@ def compute_rows(experiment, config, seed, runs, *, indices=None, executor=None,
                 raise ValueError(f"indices must lie in [0, {runs})")
             if executor is None:
                 pairs = []
+                seeds = spawn_seed_sequences(seed, runs)  # once, not once per index
                 for k, i in enumerate(idx):
-                    pairs += _rows_for_indices(experiment, config, seed, runs, [i])
+                    pairs.append(_row_task(np.random.default_rng(seeds[i]), experiment,
+                                           config))
                     report(k + 1, len(idx))
             else:
                 futs = [executor.submit(_rows_for_indices, experiment, config, seed, runs, [i])

@@ -55,7 +55,14 @@ and the chapter's declared geometry family (index, "Readings"; issue 27):
 * ``sprt-fss-confirm-s1``: the fixed-sample-size confirmation set (04-fixed-sample-size):
   the SPRT's decision and the FSS test's at N = 7 and 8 in the six cells of S1's family,
   on 40000 fresh runs of a new seed (seed + 6000; declared after a review found the
-  5000 runs of 04 too few to decide FSS(7) against the SPRT).
+  5000 runs of 04 too few to decide FSS(7) against the SPRT);
+* ``sprt-fss-curve-s1``: the FSS curve (04-fixed-sample-size): the SPRT's decision and scan
+  and the FSS test's decision at every N = 1..16 in the six cells of S1's family, on
+  20000 fresh runs of a new seed (seed + 7000; declared after a review found the saving
+  and "faster than FSS" left open where these cheap runs decide them);
+* ``sprt-calib-ga``: the calibration statistics of ``sprt-calib-s1-family`` in G-A alone
+  on 60000 fresh runs of a new seed (seed + 8000; declared after a review found the
+  decoy-filter pair above Ville's bound in G-A where the 5000 runs tie; 05-extensions).
 """
 from __future__ import annotations
 
@@ -668,3 +675,72 @@ register(Experiment(
                                     for a, lead in CALIB_GEOMETRIES)),
     seed=FSS_CONFIRM_SEED, runs=FSS_CONFIRM_RUNS, version="1",
     notebook="book/002-sprt-acm/04-fixed-sample-size.ipynb"))
+
+
+#: The FSS curve beside the SPRT (declared before its runs, session 10, after a review
+#: found the saving and "faster than FSS" kept their geometry reading open although the
+#: six S1 cells are cheap to run): S1 in the six cells of the declared family (G-A first),
+#: the SPRT's decision and scan and the FSS test's decision at every N = 1..16 on the same
+#: runs, FSS_CURVE_RUNS fresh runs of a seed no earlier run used. The count was fixed
+#: before any run from the cost (4.0 ms of CPU per run for the six cells, the measured cost
+#: of sprt-fss-confirm-s1) and the spread of the paired differences there (a half-width of
+#: about 0.3 points at 20000 runs, against the differences of several points between
+#: neighbouring N outside G-A). N* and the saving are decided by the rule of
+#: :func:`trackcore.scenarios._sprt_book.fss_n_star` (claims.yml, sprt-fss-saving).
+FSS_CURVE_SEED = SEED + 7000
+FSS_CURVE_RUNS = 20000
+FSS_CURVE_NS = tuple(range(1, 17))
+
+
+def _fss_curve_trial(rng, scenario, cells, h1_true):
+    """One run of every cell from the same generator state: the SPRT's decision and scan
+    at the cell's +-gamma, and whether the FSS test with N scans decides H0 (Lambda(N) <
+    0) for each N of :data:`FSS_CURVE_NS`."""
+    d = np.empty(len(cells), dtype=np.int8)
+    k = np.empty(len(cells), dtype=np.int16)
+    fss = np.empty((len(cells), len(FSS_CURVE_NS)), dtype=np.int8)
+    for j, sc, out in _each_cell(rng, scenario, cells, h1_true):
+        d[j], k[j] = sprt_decide(out.llr, -sc.gamma, sc.gamma)
+        fss[j] = [out.llr[n - 1] < 0 for n in FSS_CURVE_NS]
+    return d, k, fss
+
+
+def _fss_curve_extract(out, config):
+    d, k, fss = out
+    cols = {"d": d, "k": k}
+    for i, n in enumerate(FSS_CURVE_NS):
+        cols[f"fss{n}_h0"] = fss[:, i]
+    return cols
+
+
+register(Experiment(
+    name="sprt-fss-curve-s1",
+    description=("SPRT chapter, the FSS curve: S1 in the declared family (45/0, 33.8/0, "
+                 "33.8/-15, 33.8/+15, 45/-15, 45/+15), the SPRT's decision and scan and the "
+                 "FSS test's decision at every N = 1..16 on the same runs, fresh runs of a "
+                 "new seed"),
+    trial=_fss_curve_trial, call=_cells_call, extract=_fss_curve_extract,
+    config=SprtCellsConfig(1, tuple(family_cell(1, a, lead)
+                                    for a, lead in CALIB_GEOMETRIES)),
+    seed=FSS_CURVE_SEED, runs=FSS_CURVE_RUNS, version="1",
+    notebook="book/002-sprt-acm/04-fixed-sample-size.ipynb"))
+
+
+#: A larger calibration run in G-A (declared before its runs, session 10, after a fresh
+#: review found the decoy-filter pair above Ville's bound in G-A, 5.78 [5.46, 6.11] % on
+#: 20000 runs, where the book's 5000 runs tie): the statistics of sprt-calib-s1-family in
+#: G-A alone on CALIB_GA_RUNS fresh runs of a seed no earlier run used. The count was fixed
+#: from the book's interval (half-width 0.6 points at 5000 runs, so about 0.18 at 60000);
+#: the rule (the direction rule against 1/19) is unchanged.
+CALIB_GA_SEED = SEED + 8000
+CALIB_GA_RUNS = 60000
+
+register(Experiment(
+    name="sprt-calib-ga",
+    description=("SPRT chapter, calibration of S1 in G-A (45/0) on a larger fresh run: "
+                 "decisions and 'ever reaches +gamma' of Lambda, its decoy-filter pair and "
+                 "its target-filter pair"),
+    trial=_calib_trial, call=_cells_call, extract=_calib_extract,
+    config=SprtCellsConfig(1, (family_cell(1, 45.0, 0.0),)),
+    seed=CALIB_GA_SEED, runs=CALIB_GA_RUNS, version="1",
+    notebook="book/002-sprt-acm/05-extensions.ipynb"))

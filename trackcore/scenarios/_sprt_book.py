@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from ..stats import paired_rate_diff_ci  # noqa: F401  (notebook 04 imports it from here)
+from ..stats import paired_rate_diff_ci  # (also imported by notebook 04 from here)
 
 __all__: list[str] = []  # private: nothing is re-exported
 
@@ -113,6 +113,82 @@ def effect_verdict(est, margin, helpful):
     if hi < 0:
         return "hurts"
     return "undecided"
+
+
+def fss_n_star(diffs, ns):
+    """The FSS test's N* on one set of runs, by the chapter's declared rule (claims.yml,
+    ``sprt-fss-saving``): ``diffs[i]`` is the paired interval of FSS(``ns[i]``) success
+    minus the SPRT's (an Estimate, ``ns`` increasing). Returns ``(lo, value, hi)``: ``lo``
+    the smallest N whose interval does not lie wholly below 0 (the FSS test is not shown
+    short of the SPRT), ``value`` the smallest N whose estimate is >= 0, ``hi`` the
+    smallest N whose interval lies wholly above 0 (shown ahead); None where no N of
+    ``ns`` qualifies. N* is the first N that reaches the SPRT: on a non-monotone curve a
+    larger N can fall short of it again, which N* does not undo (the text reports it).
+
+    Examples
+    --------
+    >>> from trackcore.stats import Estimate
+    >>> from trackcore.scenarios._sprt_book import fss_n_star
+    >>> e = lambda v, lo, hi: Estimate(v, lo, hi, 0.95, 20000, "t")
+    >>> fss_n_star([e(-.05, -.06, -.04), e(-.001, -.004, .002), e(.004, .001, .007),
+    ...             e(-.02, -.03, -.01)], [1, 2, 3, 4])
+    (2, 3, 3)
+    """
+    ns = list(ns)
+    if len(ns) != len(diffs) or ns != sorted(set(ns)):
+        raise ValueError(f"ns must be increasing and match diffs, got {ns!r}")
+    lo = next((n for n, d in zip(ns, diffs) if not d.hi < 0), None)
+    value = next((n for n, d in zip(ns, diffs) if d.value >= 0), None)
+    hi = next((n for n, d in zip(ns, diffs) if d.lo > 0), None)
+    return lo, value, hi
+
+
+def fss_saving(n_star, ek):
+    """The saving N* / E[k] (an Estimate) from ``n_star = (lo, value, hi)`` of
+    :func:`fss_n_star` and the SPRT's mean decision scan ``ek`` (an Estimate): value
+    ``value / ek.value``, interval ``[lo / ek.hi, hi / ek.lo]`` (the ends of N* against
+    the ends of E[k]; the ends of N* come from per-N 95 % intervals, without a
+    multiplicity correction). None when an end of N* is missing (no N of the curve
+    reaches, or is shown ahead of, the SPRT).
+
+    Examples
+    --------
+    >>> from trackcore.stats import Estimate
+    >>> from trackcore.scenarios._sprt_book import fss_saving
+    >>> f"{fss_saving((7, 7, 8), Estimate(5.0, 4.9, 5.1, 0.95, 100, 't')):.3f}"
+    '1.400 [1.373, 1.633]'
+    """
+    from ..stats import Estimate
+
+    lo, value, hi = n_star
+    if lo is None or value is None or hi is None:
+        return None
+    return Estimate(value / ek.value, lo / ek.hi, hi / ek.lo, ek.level, ek.n,
+                    "N* / E[k], ends of N* (per-N paired intervals) over ends of E[k]")
+
+
+def fss_curve(d, k, fss_ok, ns):
+    """The FSS curve of one cell beside the SPRT on the same runs (04-fixed-sample-size):
+    ``d``, ``k`` the SPRT's decisions (0: right, 1: wrong, -1: undecided) and scans, and
+    ``fss_ok`` a (runs, len(ns)) array, 1 where the FSS test with ``ns[i]`` scans decides
+    right. Returns ``{"success": the SPRT's success (rate_ci), "ek": its mean decision
+    scan over the decided runs (mean_ci), "diffs": FSS(N) minus SPRT success per N
+    (paired_rate_diff_ci), "n_star": fss_n_star, "saving": fss_saving, "short_after": the
+    N beyond N*'s upper end whose FSS test is shown short of the SPRT again}``."""
+    from ..stats import mean_ci, rate_ci
+
+    d, k, fss_ok = np.asarray(d), np.asarray(k), np.asarray(fss_ok)
+    if d.ndim != 1 or k.shape != d.shape or fss_ok.shape != (d.size, len(ns)):
+        raise ValueError(f"shapes d {d.shape}, k {k.shape}, fss_ok {fss_ok.shape} do "
+                         f"not match {len(ns)} N")
+    ok = (d == 0).astype(float)
+    diffs = [paired_rate_diff_ci(fss_ok[:, i].astype(float), ok) for i in range(len(ns))]
+    ek = mean_ci(k[d >= 0].astype(float))
+    n_star = fss_n_star(diffs, ns)
+    after = [n for n, e in zip(ns, diffs)
+             if n_star[2] is not None and n > n_star[2] and e.hi < 0]
+    return {"success": rate_ci(int(ok.sum()), d.size), "ek": ek, "diffs": diffs,
+            "n_star": n_star, "saving": fss_saving(n_star, ek), "short_after": after}
 
 
 def geometry_tag(alpha, lead):
