@@ -21,7 +21,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .. import __version__
-from ..core.rng import spawn_seed_sequences
+from ..core.rng import generator_for_run
 from ..core.validation import as_count, as_int
 
 #: Relative tolerance of :func:`verify_sample` for floating-point columns.  Another CPU
@@ -304,12 +304,10 @@ def _row_task(rng, experiment, config):
 
 
 def _rows_for_indices(experiment, config, seed, n, indices):
-    """Worker side of :func:`compute_rows` for arbitrary run indices."""
-    seeds = spawn_seed_sequences(seed, n)
-    out = []
-    for i in indices:
-        out.append(_row_task(np.random.default_rng(seeds[i]), experiment, config))
-    return out
+    """Worker side of :func:`compute_rows` for arbitrary run indices: run ``i`` gets
+    ``generator_for_run(seed, i, n)`` (the ``i``-th of ``n`` spawned streams, built alone:
+    spawning all ``n`` for every verified run cost 0.45 s per run at 40 000 runs)."""
+    return [_row_task(generator_for_run(seed, i, n), experiment, config) for i in indices]
 
 
 def _progress_bar(total, desc, enabled):
@@ -362,10 +360,8 @@ def compute_rows(experiment, config, seed, runs, *, indices=None, executor=None,
                 raise ValueError(f"indices must lie in [0, {runs})")
             if executor is None:
                 pairs = []
-                seeds = spawn_seed_sequences(seed, runs)  # once, not once per index
                 for k, i in enumerate(idx):
-                    pairs.append(_row_task(np.random.default_rng(seeds[i]), experiment,
-                                           config))
+                    pairs += _rows_for_indices(experiment, config, seed, runs, [i])
                     report(k + 1, len(idx))
             else:
                 futs = [executor.submit(_rows_for_indices, experiment, config, seed, runs, [i])
