@@ -7,7 +7,8 @@ marks such boxes ``tc-wide``; ``book.css`` draws the cue), otherwise it is a pro
 verdict badges that a reader cannot see without scrolling: every verdict badge in the first
 column of a table (the scorecard's and each chapter's claim tables) must lie wholly inside
 the viewport and every clipping box around it as the page opens, and the scorecard page
-must show at least one.
+must show at least one; and, at a desktop width, notebook figures shrunk below the size
+they were drawn at (their 9-pt text would render smaller than 9 pt).
 
 Usage: python .ci/browser_check.py [_build/html] [--width PX] [--tables]   (needs /usr/bin/chromium; Debian package
 ``chromium``). Drives Chromium over the DevTools protocol with ``websocket-client`` (pinned in
@@ -48,6 +49,7 @@ class Page:
         self.next_id = 0
         self.events: list[dict] = []
         self.last_tables: list[dict] = []
+        self.width = 1400
 
     def call(self, method: str, **params):
         self.next_id += 1
@@ -151,6 +153,36 @@ MEASURE_BADGES = """
 """
 
 
+# Figures drawn by a notebook (images in cell outputs): the book's figures are saved at
+# FIGURE_DPI, so text set at s pt renders at s * (displayed / natural width) * FIGURE_DPI / 96
+# pt (CSS has 96 px per inch). At a desktop width no figure may be shrunk below its set size
+# (MIN_FIGURE_SCALE): the 9-pt legends and tick labels must render at 9 pt or more.
+FIGURE_DPI = 150
+MIN_FIGURE_SCALE = 0.99
+MEASURE_FIGURES = """
+(() => {
+  const out = [];
+  for (const im of document.querySelectorAll('.cell_output img, div.output img')) {
+    const r = im.getBoundingClientRect();
+    if (!im.naturalWidth || r.width === 0) continue;
+    out.push({shown: r.width, natural: im.naturalWidth,
+              src: (im.getAttribute('src') || '').split('/').pop().slice(0, 40)});
+  }
+  return out;
+})()
+"""
+
+
+def measure_figures(page: Page) -> list[dict]:
+    """Each notebook figure of the page: its displayed and natural width and ``scale``, the
+    factor between a font size set in the figure and its rendered size (MEASURE_FIGURES)."""
+    figs = page.call("Runtime.evaluate", expression=MEASURE_FIGURES,
+                     returnByValue=True)["result"]["value"]
+    for f in figs:
+        f["scale"] = f["shown"] / f["natural"] * FIGURE_DPI / 96.0
+    return figs
+
+
 def measure_badges(page: Page) -> dict:
     """Verdict badges in tables' first columns and those a reader cannot see (MEASURE_BADGES)."""
     return page.call("Runtime.evaluate", expression=MEASURE_BADGES,
@@ -183,11 +215,15 @@ def check_page(page: Page, url: str) -> list[str]:
     page.last_tables = wide
     badges = measure_badges(page)
     page.last_badges = badges["n"]
+    figures = measure_figures(page) if page.width >= 1000 else []
     # every page is checked as a first visit: forget the theme mode and anything else stored
     page.call("Runtime.evaluate", expression="localStorage.clear(); sessionStorage.clear()")
     problems = [f"table {t['width']} px wide in {t['box']} px without a scroll cue: {t['head']}"
                 for t in wide if not t["cue"]]
     problems += [f"verdict badge not visible without scrolling: {h}" for h in badges["hidden"][:5]]
+    problems += [f"figure {f['src']} shown at {f['shown']:.0f} of its {f['natural']} px: its "
+                 f"9-pt text renders at {9 * f['scale']:.1f} pt (below 9 pt)"
+                 for f in figures if f["scale"] < MIN_FIGURE_SCALE]
     if url.endswith("/book/scorecard.html") and badges["n"] == 0:
         problems.append("the scorecard shows no verdict badge in its tables")
     if merrors == -1:
@@ -248,6 +284,7 @@ def browser(width: int = 1400):
                 raise BrowserUnavailable("chromium did not open its debugging port")
             tab = next(t for t in tabs if t.get("type") == "page")
             page = Page(tab["webSocketDebuggerUrl"])
+            page.width = width
             for domain in ("Page", "Runtime", "Log", "Network"):
                 page.call(f"{domain}.enable")
             page.call("Emulation.setDeviceMetricsOverride", width=width, height=900,
