@@ -85,3 +85,28 @@ def test_count_error_ci_e_bc_gives_no_widened_interval():
     a = n_true + rng.integers(-1, 2, size=(MIN_RUNS, n_true.size))
     with pytest.raises(ValueError, match="bootstrap distribution"):
         count_error_ci(a, n_true, kind="e-bc")
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_integer_kernel_gives_the_float_kernels_bits(seed):
+    from trackcore.scenarios.hpda_scenario import (
+        _exact_in_integers, _loo_e_mean, _loo_e_mean_int)
+
+    rng = np.random.default_rng(seed)
+    n, K, b = int(rng.integers(2, 120)), int(rng.integers(1, 400)), 64
+    D = rng.integers(-3, 4, size=(n, K)).astype(float)
+    W = np.stack([np.bincount(rng.integers(0, n, n), minlength=n) for _ in range(b)])
+    W = W.astype(float)
+    S = W @ D
+    assert _exact_in_integers(D, W), "small integer counts are exact"
+    fast = _loo_e_mean_int(W.astype(np.int64), S.astype(np.int64), D.astype(np.int64))
+    assert np.array_equal(fast, _loo_e_mean(W, S, D)), "integer and float kernels differ"
+
+
+def test_non_integer_or_huge_counts_take_the_float_kernel():
+    from trackcore.scenarios.hpda_scenario import _exact_in_integers
+
+    W = np.ones((3, 4))
+    assert not _exact_in_integers(np.full((4, 5), 0.5), W), "Σw counts are not integers"
+    assert not _exact_in_integers(np.full((4, 5), 2.0**50), W), "sums would not be exact"
+    assert not _exact_in_integers(np.full((4, 5), np.nan), W), "NaN is not an integer"

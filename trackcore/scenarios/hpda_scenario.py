@@ -758,7 +758,23 @@ def _e_bc(W, D):
     m = W.sum(axis=1)
     S = W @ D
     e = np.abs(S / m[:, None]).mean(axis=1)
-    return m * e - (m - 1.0) * _loo_e_mean(W, S, D)
+    if _exact_in_integers(D, W):
+        # counts minus truth: every sum below is an integer the floats hold exactly, so
+        # integer arithmetic gives the same bits, about 6x faster
+        loo = _loo_e_mean_int(W.astype(np.int64), S.astype(np.int64), D.astype(np.int64))
+    else:
+        loo = _loo_e_mean(W, S, D)
+    return m * e - (m - 1.0) * loo
+
+
+def _exact_in_integers(D, W):
+    """Whether ``D`` holds integers small enough that every sum of :func:`_loo_e_mean`
+    (at most ``sum(W) * K`` terms of size ``2 max|D| sum(W)``) is exact in float64."""
+    if D.size == 0 or not np.all(np.isfinite(D)) or not np.array_equal(D, np.rint(D)):
+        return False
+    top = float(np.abs(D).max()) + 1.0
+    terms = float(W.sum(axis=1).max()) + 1.0
+    return 2.0 * top * terms * terms * D.shape[1] < 2.0**52
 
 
 @nb.njit(cache=True)
@@ -780,4 +796,30 @@ def _loo_e_mean(W, S, D):
                     acc += abs(S[i, k] - D[j, k])
                 tot += w * acc
         out[i] = tot / (K * (m - 1.0) * m)
+    return out
+
+
+@nb.njit(cache=True)
+def _loo_e_mean_int(W, S, D):
+    """:func:`_loo_e_mean` for int64 ``W``, ``S``, ``D`` (exact integer sums; the same
+    values as the float kernel whenever its sums are exact, see ``_exact_in_integers``)."""
+    b, n = W.shape
+    K = S.shape[1]
+    out = np.zeros(b)
+    for i in range(b):
+        m = 0
+        for j in range(n):
+            m += W[i, j]
+        tot = 0
+        Si = S[i]
+        for j in range(n):
+            w = W[i, j]
+            if w > 0:
+                Dj = D[j]
+                acc = 0
+                for k in range(K):
+                    acc += abs(Si[k] - Dj[k])
+                tot += w * acc
+        mf = float(m)
+        out[i] = float(tot) / (K * (mf - 1.0) * mf)
     return out
