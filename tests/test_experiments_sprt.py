@@ -175,3 +175,16 @@ def test_fss_curve_rows_are_the_batch():
         assert np.array_equal(res["d"][:, j], d) and np.array_equal(res["k"][:, j], k)
         for n in FSS_CURVE_NS:
             assert np.array_equal(res[f"fss{n}_h0"][:, j], b.llr[:, n - 1] < 0), (cell, n)
+
+
+def test_ek_undecided_at_end_counts_undecided_runs_at_the_end():
+    from trackcore.experiments.sprt import ek_undecided_at_end
+    from trackcore.stats import mean_ci
+
+    d = np.tile([0, 1, -1, 0, -1], 20)
+    k = np.tile([2, 4, 0, 6, 0], 20)
+    e = ek_undecided_at_end(d, k)
+    assert e.value == pytest.approx((2 + 4 + 16 + 6 + 16) / 5)
+    assert e.value == mean_ci(np.tile([2.0, 4, 16, 6, 16], 20)).value
+    assert ek_undecided_at_end(d[d >= 0], k[d >= 0]).value == mean_ci(k[d >= 0].astype(float)).value
+    assert ek_undecided_at_end(d, k, n_scans=10).value == pytest.approx(32 / 5)

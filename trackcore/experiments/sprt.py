@@ -692,6 +692,26 @@ FSS_CURVE_RUNS = 20000
 FSS_CURVE_NS = tuple(range(1, 17))
 
 
+def ek_undecided_at_end(d, k, n_scans=FSS_CURVE_NS[-1]):
+    """E[k] (a ``mean_ci`` Estimate) with runs still undecided at the end (``d < 0``)
+    counted at ``n_scans`` scans instead of left out. A reading found after the runs
+    (review 10, O1): the declared E[k] averages the decided runs only; this one is shown
+    beside it and decides nothing.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from trackcore.experiments.sprt import ek_undecided_at_end
+    >>> d, k = np.tile([0, 1, -1, 0], 10), np.tile([2, 4, 0, 6], 10)
+    >>> ek_undecided_at_end(d, k).value
+    7.0
+    """
+    from ..stats import mean_ci
+
+    d, k = np.asarray(d), np.asarray(k)
+    return mean_ci(np.where(d < 0, n_scans, k).astype(float))
+
+
 def _fss_curve_trial(rng, scenario, cells, h1_true):
     """One run of every cell from the same generator state: the SPRT's decision and scan
     at the cell's +-gamma, and whether the FSS test with N scans decides H0 (Lambda(N) <
