@@ -212,3 +212,18 @@ def test_min_separation_and_the_printed_death_states():
         assert np.allclose(cv.states[d, t, :2], hb.DEATHS_CV[t], atol=1e-6)
         assert np.allclose(truth.states[d, t], hb.DEATHS_B[t], atol=0.06)
     assert 2000 < hb.min_separation(truth) < 3000
+
+
+def test_paired_typical_median_and_share_of_wins():
+    rng = np.random.default_rng(3)
+    x = rng.exponential(1.0, 200)
+    h = x + 0.1  # worse in every run by 0.1 ...
+    h[:10] -= 50.0  # ... but for ten runs far better: the mean favours h
+    med, wins = hb.paired_typical(h, x)
+    assert (h - x).mean() < 0
+    assert math.isclose(med.value, 0.1) and med.lo <= 0.1 <= med.hi
+    assert wins.value == 10 / 200 and wins.method == "Wilson"
+    ties = hb.paired_typical(x, x)[1]
+    assert ties.value == 0.0  # a tie is no win
+    with pytest.raises(ValueError, match="paired"):
+        hb.paired_typical(h, x[:5])

@@ -38,7 +38,7 @@ from ._checks import check_finite, check_names
 from ._core import Experiment, register
 from .registry import HPDA_SEED, _Config
 
-__all__ = ["HpdaComparatorConfig"]
+__all__ = ["HpdaComparatorConfig", "HpdaSnConfig"]
 
 _NB = "book/000-hpda/08-valid-comparators.ipynb"
 #: the valid distance-only filters (HPDA-PF's selection rules of the same names)
@@ -144,6 +144,70 @@ for _p in PRIORS:
             call=_call,
             extract=_extract,
             config=HpdaComparatorConfig(_p),
+            seed=HPDA_SEED + 3,
+            runs=100,
+            version="1",
+            notebook=_NB,
+        )
+    )
+
+
+@dataclass(frozen=True)
+class HpdaSnConfig(_Config):
+    """Case 3 at death prior ``pi11``: HPDA-PF with the strongest-neighbour rule at
+    every SNR in ``rhos``.
+
+    Examples
+    --------
+    >>> from trackcore.experiments.hpda_comparators import HpdaSnConfig
+    >>> HpdaSnConfig(0.98).rhos
+    (2.0, 3.0, 5.0, 10.0)
+    """
+
+    pi11: float
+    rhos: tuple = RHOS
+
+    _KINDS: ClassVar[dict] = {"pi11": float, "rhos": "floats"}
+
+    def __post_init__(self):
+        HpdaComparatorConfig(self.pi11, self.rhos)  # the same checks
+
+
+def _sn_call(config):
+    return (config.pi11, config.rhos), {}
+
+
+def _sn_trial(rng, pi11, rhos):
+    """HPDA-PF with the strongest-neighbour rule in place of eq (15) on run ``i``'s
+    case-3 scans at every rho, on the streams of :func:`_comparators_trial` (scans from
+    the first child, particles from the second), so each run is paired with the
+    ``hpda.rho<r>`` run of ``hpda-cmp-pi<Pi_11>`` by common random numbers."""
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(f"rng must be a numpy Generator, got {type(rng).__name__}")
+    seqs = rng.bit_generator.seed_seq.spawn(2)
+    truth = hpda_truth("B", n_scans=hpda_parameters(3).n_scans)
+    out = {}
+    for r in rhos:
+        params = dataclasses.replace(hpda_parameters(3), snr=float(r))
+        scans = simulate_hpda_scans(truth, params, np.random.default_rng(seqs[0]))
+        cfg = dataclasses.replace(hpda_tracker_configs(params)["hpda_sn"], pi11=pi11)
+        res = hpda_pf_run(scans.z, scans.amplitude, scans.offsets, cfg,
+                          np.random.default_rng(seqs[1]))
+        out[f"sn.rho{r:g}"] = res
+    return {k: (v.count, hpda_run_metrics(v, truth)) for k, v in out.items()}
+
+
+for _p in PRIORS:
+    register(
+        Experiment(
+            name=f"hpda-sn-pi{_p:g}",
+            description="HPDA chapter, case 3 at Pi_11 = "
+            f"{_p:g}: HPDA-PF with the strongest-neighbour rule at rho = 2, 3, 5, 10, "
+            f"paired with hpda-cmp-pi{_p:g}'s HPDA-PF runs (same scans and particle streams)",
+            trial=_sn_trial,
+            call=_sn_call,
+            extract=_extract,
+            config=HpdaSnConfig(_p),
             seed=HPDA_SEED + 3,
             runs=100,
             version="1",
