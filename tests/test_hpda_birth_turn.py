@@ -6,6 +6,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from trackcore.core import spawn_seed_sequences
 from trackcore.experiments import _core
 from trackcore.experiments.hpda_extensions import (
     BIRTH_READINGS,
@@ -84,7 +85,7 @@ def test_birth_rows_equal_the_direct_runs():
     e = _core.get("hpda-ext-birth-factor-clutter")
     cfg = e.configure({"priors": (0.99,), "births": ("per_return",), "keep_scans": 8})
     ((row, _),) = _core._rows_for_indices(e, cfg, e.seed, 100, [0])
-    rng = np.random.default_rng(_core.spawn_seed_sequences(e.seed, 100)[0])
+    rng = np.random.default_rng(spawn_seed_sequences(e.seed, 100)[0])
     out = run_hpda_trial(
         rng,
         1,
