@@ -197,8 +197,9 @@ def test_verification_catches_a_corrupted_row(store, tmp_path):
 
 
 def test_sample_size_and_fresh_samples(store):
-    assert sample_size(100) == 10 and sample_size(5000) == 50 and sample_size(10) == 10
-    assert sample_size(1500) == 15 and sample_size(100, minimum=20) == 20
+    assert sample_size(100) == 20 and sample_size(5000) == 50 and sample_size(10) == 10
+    assert sample_size(1500) == 20 and sample_size(2500) == 25
+    assert sample_size(1500, minimum=10) == 15 and sample_size(100, minimum=10) == 10
     assert sample_size(1000, fraction=1.0) == 1000
     with pytest.raises(ValueError, match="fraction"):
         sample_size(10, fraction=0.0)
@@ -269,5 +270,5 @@ def test_exec_stats_page_reads_verified_runs_from_outputs():
                                                   root / "book" / "_ext" / "exec_stats.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    assert mod.runs_verified(root / "book" / "000-hpda" / "06-monte-carlo.ipynb") == (40, 1300)
+    assert mod.runs_verified(root / "book" / "000-hpda" / "06-monte-carlo.ipynb") == (80, 1300)
     assert mod.runs_verified(root / "book" / "000-hpda" / "01-model.ipynb") is None

@@ -36,7 +36,7 @@ too few runs, with :class:`StaleResultsError` naming the exact command that rege
 it.  The code version is recorded but not checked (it changes at every commit): what
 catches a silent change of the code under an unchanged version is the sampled
 re-simulation, :func:`verify_sample`, which every ported notebook runs: a fresh random
-sample (from OS entropy) of at least 10 runs and 1 % of the runs is re-simulated and
+sample (from OS entropy) of at least 20 runs and 1 % of the runs is re-simulated and
 compared with the stored rows, integers and booleans bit for bit and floats to a
 relative tolerance of ``FLOAT_RTOL`` = 1e-6 (the same code on the same platform gives
 equal bits; the tolerance leaves room for another CPU's rounding, amplified along a

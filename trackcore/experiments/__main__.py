@@ -176,7 +176,7 @@ def main(argv=None):
     v.add_argument("names", nargs="*", metavar="NAME", help="default: every stored experiment")
     v.add_argument("--fraction", type=float, default=0.01,
                    help="fraction of runs to re-simulate (default 0.01; 1.0 = all)")
-    v.add_argument("--minimum", type=int, default=10, help="at least this many runs (10)")
+    v.add_argument("--minimum", type=int, default=20, help="at least this many runs (20)")
     v.add_argument("--path", help="verify this store file instead of the book's")
     v.add_argument("--set", action="append", metavar="key=value",
                    help="with --path: the config overrides the file was made with")

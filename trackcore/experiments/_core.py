@@ -823,16 +823,16 @@ class Verification:
         return text
 
 
-def sample_size(runs, fraction=0.01, minimum=10) -> int:
+def sample_size(runs, fraction=0.01, minimum=20) -> int:
     """How many runs :func:`verify_sample` checks: ``max(minimum, ceil(fraction * runs))``,
     at most ``runs``.
 
     Examples
     --------
-    At least 10 runs and 1 % of them:
+    At least 20 runs and 1 % of them:
 
     >>> sample_size(1000), sample_size(5000), sample_size(5)
-    (10, 50, 5)
+    (20, 50, 5)
     >>> sample_size(100, fraction=0.0)
     Traceback (most recent call last):
         ...
@@ -915,7 +915,7 @@ def compare_rows(stored, fresh, run, rtol=FLOAT_RTOL):
                    else " (must be equal)"))
 
 
-def verify_sample(results, *, fraction=0.01, minimum=10, indices=None, executor=None,
+def verify_sample(results, *, fraction=0.01, minimum=20, indices=None, executor=None,
                   rtol=FLOAT_RTOL, progress=False) -> Verification:
     """Re-simulate a fresh random sample of stored runs and compare them with the store.
 
@@ -928,7 +928,7 @@ def verify_sample(results, *, fraction=0.01, minimum=10, indices=None, executor=
 
     Examples
     --------
-    A fresh random sample of 10 of the 20 runs of a temporary store is re-simulated; its
+    A fresh random sample of 20 of the 40 runs of a temporary store is re-simulated; its
     text does not depend on the sample:
 
     >>> @dataclass(frozen=True)
@@ -939,9 +939,9 @@ def verify_sample(results, *, fraction=0.01, minimum=10, indices=None, executor=
     ...                  config=Toy(), seed=7, runs=20, version="1")
     >>> import tempfile
     >>> tmp = tempfile.TemporaryDirectory()
-    >>> res = run_experiment(toy, out=Path(tmp.name) / "toy.parquet", progress=False)
+    >>> res = run_experiment(toy, runs=40, out=Path(tmp.name) / "toy.parquet", progress=False)
     >>> print(verify_sample(res))
-    toy: re-simulated 10 of 20 stored runs (a fresh random sample): all match
+    toy: re-simulated 20 of 40 stored runs (a fresh random sample): all match
     >>> tmp.cleanup()
     """
     res = load(results) if isinstance(results, str) else results
