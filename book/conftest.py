@@ -1,4 +1,4 @@
-"""Execution statistics of the notebooks: one small pytest hook, nothing else.
+"""Execution statistics of the notebooks, and the worker cap of their process pools.
 
 Every test session that executes notebooks (``pytest --nbval``, as configured in
 ``pyproject.toml``) merges, per notebook, its wall time (the sum of its cells' setup,
@@ -7,6 +7,12 @@ check its stored results into ``.ci/exec_stats.json`` (not in
 git). The appendix page "Execution statistics" is rendered from that file at build time
 (``book/_ext/exec_stats.py``). Under pytest-xdist the controller records (the workers'
 reports reach it); the workers do not write.
+
+Under pytest-xdist each notebook's kernel starts with ``TRACKCORE_MAX_WORKERS`` set to the
+cores per xdist worker (at least 1; ``trackcore.montecarlo.process_pool`` reads it): with
+``-n 2`` on two cores the pools of HPDA 06-08 and feature-JPDA 05/07 run their re-simulated
+runs in the kernel's own process (the same rows), instead of starting worker processes that
+would only compete with the other xdist worker for the same cores.
 """
 from __future__ import annotations
 
@@ -35,6 +41,33 @@ def runs_verified(path):
     found = [(int(k), int(n)) for c in nb.get("cells", []) for o in c.get("outputs", [])
              for k, n in _VERIFIED.findall("".join(o.get("text", "")))]
     return [sum(k for k, _ in found), sum(n for _, n in found)] if found else None
+
+
+def _pool_cap():
+    """Cores per xdist worker (None outside xdist or where one worker has several)."""
+    n = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "0") or 0)
+    if n < 1:
+        return None
+    per = (os.cpu_count() or 1) // n
+    return None if per > 1 else 1
+
+
+_CAP_SET = []   # whether this hook set the variable (a user's own setting is left alone)
+
+
+def pytest_runtest_setup(item):
+    # before the notebook's kernel starts (its collector's setup follows this hook)
+    cap = _pool_cap()
+    if cap is not None and "TRACKCORE_MAX_WORKERS" not in os.environ:
+        os.environ["TRACKCORE_MAX_WORKERS"] = str(cap)
+        _CAP_SET.append(True)
+
+
+def pytest_runtest_teardown(item, nextitem):
+    # the kernel keeps its own copy; the tests under tests/ run without the cap
+    if _CAP_SET and (nextitem is None or not str(nextitem.path).endswith(".ipynb")):
+        os.environ.pop("TRACKCORE_MAX_WORKERS", None)
+        _CAP_SET.clear()
 
 
 def pytest_runtest_logreport(report):

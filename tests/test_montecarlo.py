@@ -1,5 +1,6 @@
 """Tests for trackcore.montecarlo: reproducibility on every executor, ordering, validation."""
 import io
+import operator
 import sys
 from collections import namedtuple
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
@@ -199,3 +200,33 @@ def test_counts_beyond_64_bits_are_value_errors():
         process_pool(2**40)
     with pytest.raises(ValueError, match="n_runs must be an integer of magnitude"):
         default_chunksize(1e300)
+
+
+def test_max_workers_env_caps_process_pools(monkeypatch):
+    """TRACKCORE_MAX_WORKERS caps process_pool; at 1 the runs go in this process, the
+    same rows as a pool and as serially; a bad value is a ValueError naming it."""
+    from trackcore.montecarlo import InlineExecutor
+
+    draw = operator.methodcaller("random")
+    monkeypatch.setenv("TRACKCORE_MAX_WORKERS", "1")
+    with process_pool(4) as ex:
+        assert isinstance(ex, InlineExecutor), "a cap of 1 runs in this process"
+        inline = run(draw, 9, seed=5, executor=ex)
+    assert inline == run(draw, 9, seed=5), "the inline executor changed the runs"
+    monkeypatch.setenv("TRACKCORE_MAX_WORKERS", "2")
+    with process_pool(4) as ex:
+        assert ex._max_workers == 2, "the cap must bound the pool's workers"
+        assert run(draw, 9, seed=5, executor=ex) == inline, "the capped pool changed the runs"
+    for bad in ("0", "two", "-1"):
+        monkeypatch.setenv("TRACKCORE_MAX_WORKERS", bad)
+        with pytest.raises(ValueError, match="TRACKCORE_MAX_WORKERS"):
+            process_pool(2)
+
+
+def test_inline_executor_delivers_exceptions_through_the_future():
+    from trackcore.montecarlo import InlineExecutor
+
+    with InlineExecutor() as ex:
+        fut = ex.submit(operator.truediv, 1, 0)
+    with pytest.raises(ZeroDivisionError):
+        fut.result()

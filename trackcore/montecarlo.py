@@ -28,6 +28,13 @@ called from a process already using GNU OpenMP") and a fork-based
 returns a pool whose workers start from a clean ``forkserver`` (or ``spawn``)
 process instead; use it, or Dask, rather than a bare ``ProcessPoolExecutor()``.
 
+The environment variable ``TRACKCORE_MAX_WORKERS`` caps the workers of every
+:func:`process_pool`; at 1 the pool is an :class:`InlineExecutor` that runs each task in
+the calling process (the same rows: runs depend only on their seed).  The test suite sets
+it to 1 for the notebooks it executes: its two pytest-xdist workers already keep both
+cores busy, and a pool of worker processes on top would only add their start-up (each
+imports the package and loads its compiled kernels, about 3 CPU-seconds).
+
 Progress
 --------
 Off by default, so nothing reaches stored notebook outputs.  ``progress=True``
@@ -43,14 +50,16 @@ import logging
 import math
 import multiprocessing
 import sys
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+import os
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
 
 import numpy as np
 
 from .core.rng import spawn_seed_sequences
 from .core.validation import as_count, as_int
 
-__all__ = ["run", "stack_results", "default_chunksize", "process_pool"]
+__all__ = ["run", "stack_results", "default_chunksize", "process_pool", "InlineExecutor",
+           "MAX_WORKERS_ENV"]
 
 logger = logging.getLogger("trackcore.montecarlo")
 
@@ -58,6 +67,47 @@ logger = logging.getLogger("trackcore.montecarlo")
 _TARGET_TASKS = 32
 #: Largest process pool :func:`process_pool` makes (its workers all start at once).
 _MAX_WORKERS = 1024
+#: Environment variable capping the workers of :func:`process_pool` (1: in-process).
+MAX_WORKERS_ENV = "TRACKCORE_MAX_WORKERS"
+
+
+class InlineExecutor(Executor):
+    """A ``concurrent.futures`` executor that runs each task in the calling process,
+    when it is submitted; what :func:`process_pool` returns when ``TRACKCORE_MAX_WORKERS``
+    is 1.
+
+    Examples
+    --------
+    >>> import operator
+    >>> from trackcore.montecarlo import InlineExecutor, run
+    >>> draw = operator.methodcaller("random")
+    >>> with InlineExecutor() as ex:
+    ...     inline = run(draw, 6, seed=3, executor=ex)
+    >>> inline == run(draw, 6, seed=3)
+    True
+    """
+
+    def submit(self, fn, /, *args, **kwargs):
+        future = Future()
+        try:
+            future.set_result(fn(*args, **kwargs))
+        except Exception as exc:  # delivered by future.result(), as a pool would
+            future.set_exception(exc)
+        return future
+
+
+def _env_max_workers():
+    """The cap ``TRACKCORE_MAX_WORKERS`` sets (None if unset or empty)."""
+    raw = os.environ.get(MAX_WORKERS_ENV, "").strip()
+    if not raw:
+        return None
+    try:
+        cap = int(raw)
+    except ValueError:
+        raise ValueError(f"{MAX_WORKERS_ENV} must be a positive integer, got {raw!r}") from None
+    if not 1 <= cap <= _MAX_WORKERS:
+        raise ValueError(f"{MAX_WORKERS_ENV} must lie in [1, {_MAX_WORKERS}], got {cap}")
+    return cap
 
 
 def _fresh_seed(seed):
@@ -99,7 +149,8 @@ def process_pool(max_workers=None, start_method="forkserver"):
     ``start_method`` is ``"forkserver"`` (default) or ``"spawn"``; both are safe
     after numba has started OpenMP threads (see the module docstring).
     ``max_workers`` is at most 1024 (such a pool starts all its workers at its
-    first task).  Use as a
+    first task), and at most ``TRACKCORE_MAX_WORKERS`` where that variable is set; a cap
+    of 1 gives an :class:`InlineExecutor` (no worker process).  Use as a
     context manager: ``with process_pool(2) as ex: run(trial, n, seed, executor=ex)``.
 
     Examples
@@ -120,6 +171,11 @@ def process_pool(max_workers=None, start_method="forkserver"):
         if max_workers > _MAX_WORKERS:
             # a forkserver/spawn pool starts all its workers at the first submit
             raise ValueError(f"max_workers must be at most {_MAX_WORKERS}, got {max_workers}")
+    cap = _env_max_workers()
+    if cap is not None:
+        max_workers = cap if max_workers is None else min(max_workers, cap)
+        if max_workers == 1:
+            return InlineExecutor()
     return ProcessPoolExecutor(max_workers=max_workers,
                                mp_context=multiprocessing.get_context(start_method))
 
