@@ -311,10 +311,14 @@ def _rows_for_indices(experiment, config, seed, n, indices):
 
 
 def _progress_bar(total, desc, enabled):
+    """A text progress bar on ``sys.stderr`` (tqdm's plain bar: in a terminal and in a
+    notebook cell alike, where tqdm's widget bar would need ipywidgets), or None."""
     if not enabled:
         return None
-    from tqdm.auto import tqdm
-    return tqdm(total=total, desc=desc, unit="run", file=sys.stderr, smoothing=0.1)
+    from tqdm.std import tqdm
+    return tqdm(total=total, desc=desc, unit="run", file=sys.stderr, smoothing=0.1,
+                mininterval=1.0, bar_format="{l_bar}{bar:20}| {n_fmt}/{total_fmt} "
+                                            "[{elapsed}<{remaining}, {rate_fmt}]")
 
 
 def compute_rows(experiment, config, seed, runs, *, indices=None, executor=None,
