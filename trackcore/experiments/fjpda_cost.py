@@ -40,8 +40,13 @@ __all__ = [
     "DUP_VARIANTS",
     "FjpdaClusterConfig",
     "FjpdaDupMotConfig",
+    "cluster_instance",
     "cluster_trial",
+    "dup_mot_trial",
+    "events_ratio",
     "kinematic_validation",
+    "pooled_rates",
+    "simulated_events",
 ]
 
 #: experiment key -> (scene, camera jitter in px): the scenes of the complexity rule
@@ -250,3 +255,99 @@ register(Experiment(
     trial=dup_mot_trial, call=_dup_call, extract=_dup_extract,
     config=FjpdaDupMotConfig(), seed=FJPDA_COST_SEED + 10, runs=DUP_RUNS,
     version="1", notebook="book/004-feature-jpda/05-scene-results.ipynb"))
+
+
+# ---------------------------------------------------------------- analysis (06)
+def pooled_rates(rows):
+    """The declared rates of the measured clusters, pooled over ``rows`` (stores or
+    mappings ``column -> per-run array`` of ``fjpda-clusters-*``): ``p`` validated
+    pairs per cell of the clusters of two or more tracks (NaN without such a cluster),
+    ``r`` the share of validated pairs the feature gate removes, ``clutter`` the extra
+    measurements per multi-track cluster (at least 0, NaN without such a cluster) and
+    ``n_multi`` the number of those clusters.
+
+    Examples
+    --------
+    >>> row = dict.fromkeys(CLUSTER_COLUMNS, np.array([0, 0]))
+    >>> row.update(clusters_2=np.array([1, 1]), multi_tracks=np.array([2, 2]),
+    ...            multi_meas=np.array([3, 2]), multi_cells=np.array([6, 4]),
+    ...            multi_pairs=np.array([4, 3]), pairs_kin=np.array([6, 4]),
+    ...            pairs_removed=np.array([1, 1]))
+    >>> {k: round(v, 3) for k, v in pooled_rates([row]).items()}
+    {'p': 0.7, 'r': 0.2, 'clutter': 0.5, 'n_multi': 2}
+    """
+    tot = {c: 0 for c in CLUSTER_COLUMNS}
+    for row in rows:
+        for c in CLUSTER_COLUMNS:
+            tot[c] += int(np.sum(np.asarray(row[c], dtype=np.int64)))
+    n_multi = tot["clusters_2"] + tot["clusters_3"] + tot["clusters_4plus"]
+    nan = float("nan")
+    return {
+        "p": tot["multi_pairs"] / tot["multi_cells"] if tot["multi_cells"] else nan,
+        "r": tot["pairs_removed"] / tot["pairs_kin"] if tot["pairs_kin"] else nan,
+        "clutter": (max(0.0, (tot["multi_meas"] - tot["multi_tracks"]) / n_multi)
+                    if n_multi else nan),
+        "n_multi": n_multi,
+    }
+
+
+def cluster_instance(rng, T, p, r, clutter):
+    """One simulated cluster of notebook 06's model: ``T`` targets, ``m = T +
+    Poisson(clutter)`` measurements (measurement t is target t's, the rest clutter),
+    every pair validated with probability ``p``; in the gated matrix a wrong pair also
+    fails the feature gate with probability ``r``.  Returns ``(valid, gated)`` (m, T).
+
+    Examples
+    --------
+    >>> v, g = cluster_instance(np.random.default_rng(0), 3, 0.7, 0.5, 2.0)
+    >>> v.shape[1], bool(np.all(g <= v))
+    (3, True)
+    """
+    m = T + rng.poisson(clutter)
+    valid = rng.random((m, T)) < p
+    wrong = np.ones((m, T), bool)
+    idx = np.arange(T)
+    wrong[idx, idx] = False
+    gated = valid & ~(wrong & (rng.random((m, T)) < r))
+    return valid, gated
+
+
+def simulated_events(rng, T, n, p, r, clutter):
+    """Feasible events of ``n`` clusters of :func:`cluster_instance`, without and with
+    the feature gate: two arrays of length ``n``.
+
+    Examples
+    --------
+    >>> plain, feat = simulated_events(np.random.default_rng(0), 3, 5, 0.7, 0.5, 2.0)
+    >>> plain.shape, bool(np.all(feat <= plain))
+    ((5,), True)
+    """
+    from ..association import feasible_event_count
+
+    plain, feat = np.zeros(n), np.zeros(n)
+    for i in range(n):
+        v, g = cluster_instance(rng, T, p, r, clutter)
+        plain[i], feat[i] = feasible_event_count(v), feasible_event_count(g)
+    return plain, feat
+
+
+def events_ratio(plain, gated):
+    """``ratio_ci(plain, gated)`` (paired ratio of means), or where it refuses the runs
+    (too few, or all equal) the ratio of means as a
+    :class:`~trackcore.experiments.fjpda_readings.NoInterval` (NaN without runs).
+
+    Examples
+    --------
+    >>> format(events_ratio([3, 3], [2, 2]), ".2f")
+    '1.50 (no interval)'
+    >>> format(events_ratio([], []), ".2f")
+    'nan (no interval)'
+    """
+    from ..stats import ratio_ci
+    from .fjpda_readings import NoInterval
+
+    x, y = np.asarray(plain, float), np.asarray(gated, float)
+    try:
+        return ratio_ci(x, y)
+    except ValueError:
+        return NoInterval(x.mean() / y.mean() if x.size and y.mean() > 0 else float("nan"))
