@@ -214,5 +214,3 @@ def confirm_rows(stores, readings_cells):
             rows.append((key, tracker, "-" if old is None else format(old.diff, ".2g"),
                          format(c.diff, ".2g"), count_word(c)))
     return conf, rows
-
-from . import fjpda_cost  # noqa: E402,F401  (004: measured cluster rates, CLEAR-MOT of the duplicate rule)
