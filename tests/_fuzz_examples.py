@@ -543,6 +543,11 @@ def process_pool():
     return call(1, "spawn")
 
 
+@example()
+def InlineExecutor():
+    return call()
+
+
 # ------------------------------------------------------------------ plotting
 def _ax():
     import matplotlib.pyplot as plt
