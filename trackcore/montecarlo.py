@@ -88,6 +88,8 @@ class InlineExecutor(Executor):
     """
 
     def submit(self, fn, /, *args, **kwargs):
+        """Call ``fn`` with the given arguments now; a done ``Future`` holds its result
+        (or its exception, raised by ``result()`` as a pool's future would)."""
         future = Future()
         try:
             future.set_result(fn(*args, **kwargs))
