@@ -23,7 +23,6 @@ import re
 import subprocess
 import time
 from collections import defaultdict
-from datetime import datetime
 from pathlib import Path
 
 _ROOT = Path(__file__).resolve().parent.parent
@@ -52,38 +51,6 @@ def _pool_cap():
         return None
     per = (os.cpu_count() or 1) // n
     return None if per > 1 else 1
-
-
-def stored_seconds(path):
-    """Seconds a notebook's cells took in the execution stored with it (the sum over its
-    code cells of reply minus input time in their execution metadata; 0 if none)."""
-    try:
-        nb = json.loads(Path(path).read_text())
-    except (OSError, ValueError):
-        return 0.0
-    total = 0.0
-    for cell in nb.get("cells", []):
-        ex = cell.get("metadata", {}).get("execution", {})
-        a, b = ex.get("iopub.execute_input"), ex.get("shell.execute_reply")
-        if a and b:
-            t0, t1 = (datetime.fromisoformat(t.replace("Z", "+00:00")) for t in (a, b))
-            total += max(0.0, (t1 - t0).total_seconds())
-    return total
-
-
-def pytest_collection_modifyitems(session, config, items):
-    """Notebooks first, the longest first (by their stored execution times), then the
-    tests in their collected order: with ``--dist loadfile`` and
-    ``--no-loadscope-reorder`` (pyproject.toml) the two xdist workers take files in this
-    order, so the long notebooks do not start last and leave one worker idle at the end."""
-    cost = {}
-    for item in items:
-        path = str(item.path)
-        if path.endswith(".ipynb") and path not in cost:
-            cost[path] = stored_seconds(path)
-    order = {p: i for i, p in enumerate(sorted(cost, key=lambda p: -cost[p]))}
-    items.sort(key=lambda it: (0, order[str(it.path)]) if str(it.path) in order
-               else (1, 0))
 
 
 def pytest_configure(config):
