@@ -10,7 +10,7 @@ reports reach it); the workers do not write.
 
 Under pytest-xdist each notebook's kernel starts with ``TRACKCORE_MAX_WORKERS`` set to the
 cores per xdist worker (at least 1; ``trackcore.montecarlo.process_pool`` reads it): with
-``-n 2`` on two cores the pools of HPDA 06-08 and feature-JPDA 05/07 run their re-simulated
+``-n 2`` on two cores the pools of HPDA 06-08 and feature-JPDA 05-07 run their re-simulated
 runs in the kernel's own process (the same rows), instead of starting worker processes that
 would only compete with the other xdist worker for the same cores; OpenBLAS runs
 single-threaded there for the same reason (``pytest_configure``).
@@ -57,8 +57,8 @@ def pytest_configure(config):
     """With one core per pytest-xdist worker, OpenBLAS runs single-threaded in the workers
     and in the notebooks' kernels (they inherit the environment): its second thread would
     spin-wait on a core the other worker is using. Measured on two cores with the other
-    one busy, a bootstrap interval of the HPDA chapter took 4.5x the wall time and 3.5x
-    the CPU time with OpenBLAS's default threads. Set here, in the controller, before the
+    one busy, twelve bootstrap intervals of the HPDA chapter took 3.3-4.5x the wall time and
+    3.4-3.9x the CPU time with OpenBLAS's default threads (two runs of each). Set here, in the controller, before the
     workers start and load numpy; a user's own setting is kept."""
     n = getattr(config.option, "numprocesses", None)
     if isinstance(n, int) and n >= 1 and (os.cpu_count() or 1) // n <= 1:
