@@ -318,6 +318,47 @@ def test_open_readings_cap_a_verdict_at_undecided(tmp_path, ref, run):
     assert (ev["verdict"], ev["run_verdict"]) == ("undecided", run)
 
 
+RHO = [{"name": "rho", "parameter": "snr", "default": "10", "why": "w",
+        "values": [{"value": "10", "why": "a"}, {"value": "3", "why": "b"},
+                   {"value": "5", "why": "c"}]}]
+
+
+def test_varied_readings_add_one_cell_per_other_value(tmp_path):
+    # pi spans the grid; rho is varied alone from the default cell (pi = 0.99)
+    ours = {"0.98": "nb::d98", "0.99": "nb::d995", "0.995": "nb::d995",
+            "0.99; rho: 3": "nb::d98", "0.99; rho: 5": "nb::d98"}
+    claim = _claim(readings=["pi"], varied=["rho"], ours=ours)
+    path = _registry(tmp_path, [claim], readings=PI + RHO)
+    assert scorecard.problems(path) == []
+    data = scorecard.load(path)
+    assert scorecard.reading_grid(data, data["claims"][0]) == list(ours)
+    ev = _eval(path)
+    assert (ev["verdict"], ev["holds"], ev["cells"]) == ("reproduced", 5, 5)
+    assert ev["readings"] == ["pi", "rho"]
+    # a varied cell that fails beside holding cells: depends on reading
+    ours["0.99; rho: 5"] = "nb::up"
+    path.write_text(yaml.safe_dump({**data, "claims": [dict(claim, ours=ours)]}),
+                    encoding="utf-8")
+    assert _eval(path)["verdict"] == "depends on reading"
+
+
+def test_varied_without_a_grid_and_its_problems(tmp_path):
+    ours = {"default readings": "nb::up", "default readings; rho: 3": "nb::up",
+            "default readings; rho: 5": {"pending": "not run yet"}}
+    claim = _claim(varied=["rho"], ours=ours, not_applicable={"pi": "w"})
+    path = _registry(tmp_path, [claim], readings=PI + RHO)
+    assert scorecard.problems(path) == []
+    ev = _eval(path)   # fails in two cells, the third pending: undecided
+    assert (ev["verdict"], ev["cells"], ev["pending_cells"]) == ("undecided", 3, 1)
+    for bad, message in (
+            (dict(claim, ours={"default readings": "nb::up"}), "cover the readings grid"),
+            (dict(claim, open_readings={"rho": "w"}), "both run and in open_readings"),
+            (dict(claim, readings=["rho"]), "both in the grid and varied alone")):
+        path.write_text(yaml.safe_dump({**scorecard.load(path), "claims": [bad]}),
+                        encoding="utf-8")
+        assert any(message in p for p in scorecard.problems(path)), scorecard.problems(path)
+
+
 def test_not_applicable_reading_leaves_the_verdict(tmp_path):
     path = _registry(tmp_path, [_claim(not_applicable={"pi": "a prior of another tracker"})],
                      readings=PI)

@@ -35,9 +35,13 @@ mapping from each reading value (several readings: the values joined by ``", "``
 named) to a glued reference; every cell of the grid must be present, either as a reference or
 as ``{pending: why}`` (a cell not yet run, or run at a size this book does not accept, which
 counts as undecided; a claim or an ``all`` part without readings may give its one ``ours``
-that way too).  Every reading of the
-chapter is accounted for by every quantitative claim with a rule: named in ``readings``,
-listed in ``open_readings: {name: why}`` (it applies and has not been run: the verdict is at
+that way too).  Readings whose values cannot all be crossed may be varied one at a time
+instead (``varied: [memory, tsi]``): each of their non-default values adds one cell, the
+grid's default cell with that one reading changed, labelled ``"<default cell>; memory: 1"``
+(``"default readings; memory: 1"`` for a claim without ``readings``, whose default cell is
+then ``"default readings"``); their interactions are not run, which the chapter says.  Every
+reading of the chapter is accounted for by every quantitative claim with a rule: named in
+``readings`` or ``varied``, listed in ``open_readings: {name: why}`` (it applies and has not been run: the verdict is at
 most *undecided*, whatever the run cells say), or in ``not_applicable: {name: why}``.
 
 Rules (numbers are in the units the glued value prints; a rule whose glued values end in
@@ -270,26 +274,48 @@ def combine_readings(verdicts: list[str]) -> str:
     return "depends on reading"
 
 
+DEFAULT_CELL = "default readings"
+
+
+def _names(claim: dict, field: str) -> list[str]:
+    names = claim.get(field) or []
+    return [names] if isinstance(names, str) else list(names)
+
+
 def reading_grid(data: dict, claim: dict) -> list[str]:
-    """The labels of every cell of a claim's readings grid ([""] without readings)."""
-    names = claim.get("readings") or []
-    if isinstance(names, str):
-        names = [names]
+    """The labels of every cell of a claim's readings grid ([""] without readings).
+
+    The readings named in ``readings`` span a full grid; those named in ``varied`` are
+    varied one at a time from the grid's default cell (every other reading at its
+    default), each of their other values adding the cell ``"<default cell>; <name>:
+    <value>"`` (``"default readings"`` stands for the default cell of a claim with
+    ``varied`` and no ``readings``)."""
+    names = _names(claim, "readings")
+    varied = _names(claim, "varied")
     decl = {r.get("name"): r for r in data.get("readings") or []}
     axes = []
-    for n in names:
+    for n in names + varied:
         if n not in decl:
             raise ValueError(f"reading {n!r} is not declared in the chapter's readings")
+    for n in names:
         axes.append([str(v["value"]) for v in decl[n]["values"]])
     if not axes:
-        return [""]
-    return [", ".join(cell) for cell in itertools.product(*axes)]
+        grid = [DEFAULT_CELL] if varied else [""]
+    else:
+        grid = [", ".join(cell) for cell in itertools.product(*axes)]
+    base = ", ".join(str(decl[n]["default"]) for n in names) if names else DEFAULT_CELL
+    for n in varied:
+        if n in names:
+            raise ValueError(f"reading {n!r} is both in the grid and varied alone")
+        grid += [f"{base}; {n}: {v['value']}" for v in decl[n]["values"]
+                 if str(v["value"]) != str(decl[n]["default"])]
+    return grid
 
 
 def default_label(data: dict, claim: dict) -> str:
-    names = claim.get("readings") or []
-    if isinstance(names, str):
-        names = [names]
+    names = _names(claim, "readings")
+    if not names and _names(claim, "varied"):
+        return DEFAULT_CELL
     decl = {r.get("name"): r for r in data.get("readings") or []}
     return ", ".join(str(decl[n]["default"]) for n in names)
 
@@ -330,8 +356,7 @@ def _rule_parts(claim: dict) -> list[tuple[dict, object]]:
 def evaluate(data: dict, claim: dict, glue: _Glue) -> dict:
     """The computed verdict of one claim: ``{"verdict", "per_reading", "holds", "cells",
     "readings"}``; typed verdicts are passed through."""
-    names = claim.get("readings") or []
-    names = [names] if isinstance(names, str) else list(names)
+    names = _names(claim, "readings") + _names(claim, "varied")
     if not claim.get("rule"):
         v = claim.get("verdict")
         return {"verdict": v, "per_reading": {}, "holds": None, "cells": 0,
@@ -555,8 +580,7 @@ def problems(path: Path) -> list[str]:
                     if not c.get(f):
                         out.append(f"{where}: an erratum of class {cls!r} needs {f!r}")
         # readings
-        names = c.get("readings") or []
-        names = [names] if isinstance(names, str) else names
+        names = _names(c, "readings") + _names(c, "varied")
         if names and not c.get("rule"):
             out.append(f"{where}: readings need a rule")
         if names:
