@@ -83,6 +83,25 @@ def test_bootstrap_ci_general_statistic_matches_mean_ci():
     assert med.lo <= np.median(x) <= med.hi
 
 
+def test_bootstrap_ci_resamples_rows_of_multi_column_samples():
+    # the resamples and leave-one-out samples are whole rows, drawn as rng.integers does
+    from trackcore.stats import _leave_one_out_indices
+
+    assert _leave_one_out_indices(3).tolist() == [[1, 2], [0, 2], [0, 1]]
+    cols = np.random.default_rng(2).exponential(1.0, size=(60, 2))
+    seen = {}
+
+    def stat(b):
+        seen.setdefault(b.shape[0], b)
+        return b[..., 0].mean(axis=1) / b[..., 1].mean(axis=1)
+
+    est = bootstrap_ci(stat, cols, n_boot=200, seed=3)
+    idx = np.random.default_rng(3).integers(0, 60, size=(200, 60))
+    assert np.array_equal(seen[200], cols[idx])
+    assert np.array_equal(seen[60][7], np.delete(cols, 7, axis=0))
+    assert est.lo < est.value < est.hi
+
+
 def test_wilson_against_closed_form_and_scipy():
     lo, hi = wilson_interval(5, 10)
     assert (lo, hi) == pytest.approx((0.2365931, 0.7634069), abs=1e-6)

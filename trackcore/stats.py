@@ -845,6 +845,12 @@ def ratio_ci(x, y, *, paired: bool = True, level: float = LEVEL, n_boot: int = N
     return _bca(x.mean() / y.mean(), boot, jack, level, n, method)
 
 
+def _leave_one_out_indices(n: int) -> np.ndarray:
+    """``(n, n - 1)`` run indices: row ``i`` is ``0..n-1`` without ``i``."""
+    j = np.arange(n - 1)[None, :]
+    return j + (j >= np.arange(n)[:, None])
+
+
 def bootstrap_ci(statistic: Callable, *samples, paired: bool = True, level: float = LEVEL,
                  n_boot: int = N_BOOT, seed: int = 0) -> Estimate:
     """BCa interval of any statistic of one or more per-run samples.
@@ -894,23 +900,25 @@ def bootstrap_ci(statistic: Callable, *samples, paired: bool = True, level: floa
     done = 0
     while done < n_boot:
         b = min(_CHUNK // 4, n_boot - done)
+        # np.take gathers whole rows of a multi-column sample several times faster
+        # than fancy indexing, with the same values
         if paired:
             idx = rng.integers(0, arrs[0].shape[0], size=(b, arrs[0].shape[0]))
-            res = [a[idx] for a in arrs]
+            res = [np.take(a, idx, axis=0) for a in arrs]
         else:
-            res = [a[rng.integers(0, a.shape[0], size=(b, a.shape[0]))] for a in arrs]
+            res = [np.take(a, rng.integers(0, a.shape[0], size=(b, a.shape[0])), axis=0)
+                   for a in arrs]
         boot[done:done + b] = stat(*res)
         done += b
     if paired:
         n = arrs[0].shape[0]
-        keep = ~np.eye(n, dtype=bool)
-        jack = stat(*[np.stack([a[keep[i]] for i in range(n)]) for a in arrs])
+        loo = _leave_one_out_indices(n)
+        jack = stat(*[np.take(a, loo, axis=0) for a in arrs])
     else:
         parts = []
         for j, a in enumerate(arrs):
             n = a.shape[0]
-            keep = ~np.eye(n, dtype=bool)
-            loo = np.stack([a[keep[i]] for i in range(n)])
+            loo = np.take(a, _leave_one_out_indices(n), axis=0)
             others = [np.repeat(o[None], n, axis=0) for o in arrs]
             others[j] = loo
             parts.append(stat(*others))
