@@ -21,9 +21,12 @@ import json
 import os
 import re
 import subprocess
+import sys
 import time
 from collections import defaultdict
 from pathlib import Path
+
+import pytest
 
 _ROOT = Path(__file__).resolve().parent.parent
 STATS_FILE = _ROOT / ".ci" / "exec_stats.json"
@@ -63,6 +66,31 @@ def pytest_configure(config):
     n = getattr(config.option, "numprocesses", None)
     if isinstance(n, int) and n >= 1 and (os.cpu_count() or 1) // n <= 1:
         os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    _warm_numba(config, n)
+
+
+def _warm_numba(config, n):
+    """The whole suite under pytest-xdist, from an empty numba cache (a clean clone): the
+    kernels are compiled once, ``n`` modules at a time, before the workers start
+    (``tests/numba_warm.py``), so that no two workers or notebook kernels compile the same
+    kernel at once. ``TRACKCORE_NUMBA_WARM=0`` switches it off."""
+    if os.environ.get("PYTEST_XDIST_WORKER") or os.environ.get("TRACKCORE_NUMBA_WARM") == "0":
+        return
+    if not (isinstance(n, int) and n >= 2) or \
+            config.args_source is not pytest.Config.ArgsSource.TESTPATHS:
+        return
+    sys.path.insert(0, str(_ROOT / "tests"))   # the pool's processes import it by name
+    try:
+        import numba_warm
+
+        if not numba_warm.cache_is_empty():
+            return
+        t0 = time.perf_counter()
+        done = numba_warm.warm(n)
+    finally:
+        sys.path.remove(str(_ROOT / "tests"))
+    sys.stderr.write(f"numba kernels of {len(done)} modules compiled into the cache on {n} "
+                     f"processes in {time.perf_counter() - t0:.0f} s\n")
 
 
 _CAP_SET = []   # whether this hook set the variable (a user's own setting is left alone)
@@ -107,7 +135,8 @@ def pytest_sessionfinish(session, exitstatus):
         stats = {}
     try:
         commit = subprocess.run(["git", "-C", str(_ROOT), "rev-parse", "--short", "HEAD"],
-                                capture_output=True, text=True, timeout=10).stdout.strip()
+                                capture_output=True, text=True, timeout=10,
+                                check=False).stdout.strip()
     except (OSError, subprocess.SubprocessError):
         commit = ""
     when = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
