@@ -218,7 +218,19 @@ def scene_of_run(rng, n_scenes):
 def oat_trial(rng, config):
     """One run: ``(scene index, {"<tracker> <value>": SceneMetrics})``: the scene of
     :func:`scene_of_run` rendered once, segmented by ViBe (first, drawing from ``rng``)
-    and by the running average, every pair of ``config.variants`` on its detections."""
+    and by the running average, every pair of ``config.variants`` on its detections.
+
+    Examples
+    --------
+    Run 1 of a store renders the second scene (side by side); here only the default pair
+    and the one-frame memory run:
+
+    >>> from trackcore.core.rng import generator_for_run
+    >>> config = FjpdaOatConfig(values=("default", "mem1"))
+    >>> i, out = oat_trial(generator_for_run(7, 1, 6), config)
+    >>> i, sorted(out)
+    (1, ['FJPDA default', 'FJPDA mem1', 'JPDA default', 'JPDA mem1'])
+    """
     from ..scenarios.feature_metrics import scene_metrics
     from ..scenarios.feature_scenes import render_scene, segment_scene
     from ..trackers.jpda_tracker import run_jpda_tracker
