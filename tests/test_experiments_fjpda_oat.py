@@ -1,6 +1,7 @@
 """The feature-JPDA readings varied one at a time (issue 29, session 12): the matched clutter
 density, the config, one run against the readings trial, the registered experiments and
 their stores."""
+import random
 import shutil
 
 import numpy as np
@@ -53,8 +54,10 @@ def test_clutter_per_frame_counts_blobs_off_the_vehicles():
     assert counts.tolist() == [0, 1, 1], (counts, n_veh)
 
 
-@pytest.mark.parametrize("key", ["glare", "side-by-side"])
-def test_matched_lam_is_the_declared_measurement(key):
+def test_matched_lam_is_the_declared_measurement():
+    # one scene's 50 calibration renders (about 12 s), a fresh one of the six each time, as
+    # the notebooks verify a fresh sample of stored runs
+    key = random.SystemRandom().choice(OAT_SCENES)
     assert matched_density(key) == pytest.approx(MATCHED_LAM[key], rel=1e-12), key
 
 
