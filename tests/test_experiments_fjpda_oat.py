@@ -2,12 +2,10 @@
 density, the config, one run against the readings trial, the registered experiments and
 their stores."""
 import random
-import shutil
 
 import numpy as np
-import pyarrow as pa
-import pyarrow.parquet as pq
 import pytest
+from _stores import corrupted_store
 
 from trackcore.core.rng import generator_for_run
 from trackcore.detection.image import detect_blobs
@@ -140,14 +138,7 @@ def test_stored_row_equals_the_direct_run(stored):
 
 
 def test_verification_catches_a_corrupted_stored_row(stored, tmp_path):
-    path = get(NAME).default_path()
-    bad = tmp_path / "bad.parquet"
-    shutil.copy(path, bad)
-    table = pq.read_table(path)
     column = "FJPDA mem1.false_tracks"
-    values = table.column(column).to_numpy().copy()
-    values[RUN] += 1
-    i = table.schema.get_field_index(column)
-    pq.write_table(table.set_column(i, table.schema.field(i), pa.array(values)), bad)
+    bad = corrupted_store(NAME, tmp_path, column, RUN)
     with pytest.raises(VerificationError, match=f"run {RUN}, column '{column}'"):
-        verify_sample(load(NAME, path=bad), indices=[RUN])
+        verify_sample(bad, indices=[RUN])

@@ -1,12 +1,10 @@
 """The feature-JPDA readings runs (issue 29): the sliding correlation, the first fully
 visible template, the false-track attribution, the py-motmetrics measures against our
 ID-switch counter, the registered experiments and their stores."""
-import shutil
 
 import numpy as np
-import pyarrow as pa
-import pyarrow.parquet as pq
 import pytest
+from _stores import corrupted_store
 from test_ncc_sliding import _sliding_reference  # the direct loop, shared
 
 from trackcore.core.rng import generator_for_run
@@ -176,17 +174,10 @@ def test_stored_row_equals_the_direct_run(direct):
 
 
 def test_verification_catches_a_corrupted_stored_row(direct, tmp_path):
-    path = get(NAME).default_path()
-    bad = tmp_path / "bad.parquet"
-    shutil.copy(path, bad)
-    table = pq.read_table(path)
     column = "FJPDA.false_tracks"
-    values = table.column(column).to_numpy().copy()
-    values[RUN] += 1
-    i = table.schema.get_field_index(column)
-    pq.write_table(table.set_column(i, table.schema.field(i), pa.array(values)), bad)
+    bad = corrupted_store(NAME, tmp_path, column, RUN)
     with pytest.raises(VerificationError, match=f"run {RUN}, column '{column}'"):
-        verify_sample(load(NAME, path=bad), indices=[RUN])
+        verify_sample(bad, indices=[RUN])
 
 
 def test_compare_reports_no_interval_below_the_minimum():

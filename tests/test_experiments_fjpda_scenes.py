@@ -1,12 +1,10 @@
 """The feature-JPDA scene experiments (book/004-feature-jpda/05-scene-results.ipynb):
 registry entries, config validation, stored rows against the notebook's computation,
 a corrupted stored row caught by the sampled verification."""
-import shutil
 
 import numpy as np
-import pyarrow as pa
-import pyarrow.parquet as pq
 import pytest
+from _stores import corrupted_store
 
 from trackcore.core.rng import generator_for_run
 from trackcore.experiments import VerificationError, get, load, status, verify_sample
@@ -84,16 +82,8 @@ def test_overrides_are_parsed_and_validated():
 
 
 def test_verification_catches_a_corrupted_stored_row(direct, tmp_path):
-    path = get(NAME).default_path()
-    bad = tmp_path / "bad.parquet"
-    shutil.copy(path, bad)
-    table = pq.read_table(path)
     column = "FJPDA.id_switches"
-    values = table.column(column).to_numpy().copy()
-    values[RUN] += 1
-    i = table.schema.get_field_index(column)
-    pq.write_table(table.set_column(i, table.schema.field(i), pa.array(values)), bad)
-    res = load(NAME, path=bad)
+    res = corrupted_store(NAME, tmp_path, column, RUN)
     assert res[column][RUN] == direct.metrics["FJPDA"].id_switches + 1
     with pytest.raises(VerificationError) as exc:
         verify_sample(res, indices=[RUN])
