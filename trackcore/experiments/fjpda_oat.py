@@ -172,10 +172,11 @@ class FjpdaOatConfig(_Config):
     lam: tuple = ()
 
     _KINDS = {"scenes": tuple, "values": tuple, "lam": "floats"}  # noqa: RUF012
+    _VARIED = VARIED  # the value keys (a subclass may name others)
 
     def __post_init__(self):
         check_names(self.scenes, "scenes", tuple(READINGS_SCENES), "scene")
-        check_names(self.values, "values", tuple(VARIED), "value")
+        check_names(self.values, "values", tuple(self._VARIED), "value")
         if self.values[0] != "default":
             raise ValueError(f"values must start with 'default', got {self.values!r}")
         lam = self.lam or tuple(MATCHED_LAM.get(s) for s in self.scenes)
@@ -192,7 +193,7 @@ class FjpdaOatConfig(_Config):
         jitter = float(READINGS_SCENES[self.scenes[i]][1])
         out = {}
         for v in self.values:
-            _, _, method, kw = VARIED[v]
+            _, _, method, kw = self._VARIED[v]
             kw = {"lam": self.lam[i]} if v == "lam" else kw
             out[v] = (method, {t: matched_config(t, jitter, **kw) for t in ("JPDA", "FJPDA")})
         return out

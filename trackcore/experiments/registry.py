@@ -420,5 +420,6 @@ from . import fjpda_templates  # noqa: E402,F401  (004: template cells, HOTA, oc
 from . import fjpda_followups  # noqa: E402,F401  (004: S3 c_I 0.3/0.2, the long occlusion map)
 from . import fjpda_cost  # noqa: E402,F401  (004: measured cluster rates, CLEAR-MOT of the duplicate rule)
 from . import fjpda_oat  # noqa: E402,F401  (004: the readings one at a time, S3 confirmation)
+from . import fjpda_oat_vel  # noqa: E402,F401  (004: the measurement "position and velocity")
 from . import tom_ladder  # noqa: E402,F401  (001-05: the cause ladder, headings)
 from . import tom_tuning  # noqa: E402,F401  (001-05: the grids, fresh seeds, T9, no clutter)

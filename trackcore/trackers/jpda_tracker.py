@@ -37,6 +37,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 from scipy.stats import beta as beta_dist
+from scipy.stats import chi2
 
 from ..association.gating import mahalanobis_gate_kernel
 from ..core.validation import as_array, as_bool_matrix
@@ -61,6 +62,7 @@ __all__ = [
 ]
 
 VARIANTS = ("GNN", "JPDA", "FJPDA-gate", "FJPDA")
+MODELS = ("cv", "rw", "pv")
 TSI_SOURCES = ("outside_gates", "unvalidated")
 RHO_WEIGHTS = ("raw", "normalised")
 CORRELATIONS = ("canvas", "sliding")
@@ -135,7 +137,26 @@ class JPDATrackerConfig:
       image border (:func:`_touches_edge`), it is replaced every frame
       by the silhouette of the nearest kinematically validated measurement (outside
       memory), until one away from the border is taken; the drift guard is
-      anchored to that one.
+      anchored to that one;
+    * ``model`` (``"cv"``): what a detection reports and the state it updates.
+      ``"cv"``: its position, the state [x, y, vx, vy] (constant velocity, DWNA);
+      ``"rw"``: its position, the state [x, y] (random walk, ``q_rw``);
+      ``"pv"``: position *and* velocity (the paper's detector "reports the velocity as
+      well"), the CV state and H = I4.  Detection j of frame k reports (z_j, v_j) with
+      v_j = z_j - z_p, z_p the nearest detection (any, not only the unused ones) of
+      frame k-1 within the TSI radius r = v_max T + pair_margin; its noise is that of
+      the difference of two noisy positions, R_pv = [[R, R], [R, 2R]] (the correlation
+      of v_j with the previous frame's measurement, already used by the filter, is
+      ignored).  The gate is chi-square on 4 dof at the gate probability of ``gamma``
+      on 2 dof (:attr:`gate_gamma`, 13.28 for 9.21), the clutter density is ``lam``
+      times a uniform density of clutter velocities over |v_x|, |v_y| <= r
+      (:attr:`clutter_density`, ``lam / (2 r)^2``).  A detection with no detection of
+      frame k-1 within r reports no velocity: no track validates it (it is not a 4-D
+      measurement, and one JPDA over mixed 2-D and 4-D likelihoods would compare
+      densities of different dimension), and, being outside every gate, it may start a
+      track by TSI (as the previous detection of the next frame's pair).  TSI, the
+      gate-size rule and the gate half-widths are the CV model's (the position block of
+      S with ``gamma``).
 
     Examples
     --------
@@ -146,6 +167,13 @@ class JPDATrackerConfig:
     Traceback (most recent call last):
         ...
     ValueError: variant must be one of ('GNN', 'JPDA', 'FJPDA-gate', 'FJPDA'), got 'X'
+
+    The position-and-velocity measurement: a 4-dof gate at the same gate probability, the
+    clutter density spread over the velocities within the TSI radius (here 8 px/frame):
+
+    >>> pv = JPDATrackerConfig(model="pv")
+    >>> round(pv.gate_gamma, 2), pv.clutter_density == 1e-5 / 16.0 ** 2
+    (13.28, True)
     """
     variant: str = "FJPDA"
     sigma_a: float = 0.3            # DWNA acceleration std, px/frame^2
@@ -160,7 +188,8 @@ class JPDATrackerConfig:
     d_dup: float = 5.0              # duplicate distance, px
     dup_frames: int = 3
     duplicate_deletion: bool = True
-    model: str = "cv"               # "cv" or "rw" (position-only random walk, ablation)
+    model: str = "cv"               # "cv", "rw" (position-only random walk, ablation) or
+                                    # "pv" (position and velocity measured, CV state)
     q_rw: float = 4.0               # random-walk position variance per frame, px^2
     template_update: bool = True
     template_guard: bool = True
@@ -174,7 +203,7 @@ class JPDATrackerConfig:
                                      # ratio g1(rho)/g0(rho) instead of rho (extension)
 
     def __post_init__(self):
-        for name, allowed in (("variant", VARIANTS), ("model", ("cv", "rw")),
+        for name, allowed in (("variant", VARIANTS), ("model", MODELS),
                               ("tsi_from", TSI_SOURCES), ("rho_weight", RHO_WEIGHTS),
                               ("correlation", CORRELATIONS),
                               ("template_from", TEMPLATE_SOURCES)):
@@ -206,6 +235,24 @@ class JPDATrackerConfig:
     @property
     def uses_features(self):
         return self.variant in ("FJPDA-gate", "FJPDA")
+
+    @property
+    def gate_gamma(self):
+        """The gate threshold on d^2 of one measurement: ``gamma`` (2 dof) for the
+        position models; for ``model="pv"`` the 4-dof threshold of the same gate
+        probability."""
+        if self.model != "pv":
+            return self.gamma
+        return float(chi2.ppf(chi2.cdf(self.gamma, 2), 4))
+
+    @property
+    def clutter_density(self):
+        """The clutter density of the association: ``lam`` (px^-2) for the position
+        models; for ``model="pv"`` ``lam / (2 r)^2`` (clutter velocities uniform over
+        |v_x|, |v_y| <= r, r = v_max T + pair_margin the TSI radius)."""
+        if self.model != "pv":
+            return self.lam
+        return self.lam / (2.0 * (self.v_max * 1.0 + self.pair_margin)) ** 2
 
 
 def matched_config(variant="FJPDA", jitter=0.0, **overrides):
@@ -258,7 +305,7 @@ def steady_state_gate(config):
         if np.max(np.abs(P_new - P)) < 1e-12:
             break
         P = P_new
-    S = H @ (F @ P @ F.T + Q) @ H.T + R
+    S = (H @ (F @ P @ F.T + Q) @ H.T + R)[:2, :2]  # the position block
     return float(math.sqrt(config.gamma * np.linalg.eigvalsh(S)[-1]))
 
 
@@ -347,16 +394,19 @@ class JPDATracker:
     def __init__(self, config: JPDATrackerConfig | None = None):
         self.cfg = config if config is not None else JPDATrackerConfig()
         c = self.cfg
-        if c.model == "cv":
-            self.F = cv_transition(1.0)
-            self.Q = cv_process_noise(1.0, c.sigma_a ** 2)
-            self.H = position_matrix(2, 4)
-        else:
+        self.R2 = c.r_std ** 2 * np.eye(2)   # the noise of one position
+        if c.model == "rw":
             self.F = np.eye(2)
             self.Q = c.q_rw * np.eye(2)
             self.H = np.eye(2)
-        self.R = c.r_std ** 2 * np.eye(2)
+        else:
+            self.F = cv_transition(1.0)
+            self.Q = cv_process_noise(1.0, c.sigma_a ** 2)
+            self.H = position_matrix(2, 4) if c.model == "cv" else np.eye(4)
+        R = self.R2
+        self.R = R if c.model != "pv" else np.block([[R, R], [R, 2 * R]])
         self.tracks: list[_Track] = []
+        self.prev_all = np.zeros((0, 2))    # every detection of the previous frame
         self.prev_z = np.zeros((0, 2))
         self.prev_masks: list = []
         self.next_id = 1
@@ -365,8 +415,8 @@ class JPDATracker:
 
     # ------------------------------------------------------------ helpers
     def _new_track(self, zc, zp, mask):
-        R = self.R
-        if self.cfg.model == "cv":
+        R = self.R2
+        if self.cfg.model != "rw":
             x = np.array([zc[0], zc[1], zc[0] - zp[0], zc[1] - zp[1]])
             P = np.block([[R, R], [R, 2 * R]])
         else:
@@ -388,8 +438,10 @@ class JPDATracker:
         xp, Pp, S_all, zp_all = [], [], [], []
         valid_kin = np.zeros((m, T), bool)
         lik = np.zeros((m, T))
-        nx = self.F.shape[0]
-        L = np.zeros((2, 2))
+        nx, nz = self.H.shape[1], self.H.shape[0]
+        zz, has_v = self._measurements(z)
+        gamma = c.gate_gamma
+        L = np.zeros((nz, nz))
         gmask = np.zeros(m, np.bool_)
         d2 = np.empty(m)
         nearest = np.full(T, -1)
@@ -407,13 +459,18 @@ class JPDATracker:
             if m:
                 if not cholesky_lower_kernel(S, L):
                     raise ValueError("innovation covariance lost positive definiteness")
-                mahalanobis_gate_kernel(z, zpred, L, c.gamma, -1, gmask, d2)
+                mahalanobis_gate_kernel(zz, zpred, L, gamma, -1, gmask, d2)
+                if has_v is not None:
+                    gmask &= has_v       # a detection without velocity is validated by none
                 valid_kin[:, i] = gmask
                 if not tr.whole and gmask.any():
                     nearest[i] = int(np.argmin(np.where(gmask, d2, np.inf)))
-                if gmask.any():
+                if gmask.any() and nz == 2:
                     lik[gmask, i] = np.exp(-0.5 * d2[gmask]) / (
                         2 * np.pi * L[0, 0] * L[1, 1])
+                elif gmask.any():
+                    lik[gmask, i] = np.exp(-0.5 * d2[gmask]) / (
+                        (2 * np.pi) ** (nz / 2) * np.prod(np.diag(L)))
         rho = np.zeros((m, T))
         if c.uses_features:
             for j, i in zip(*np.nonzero(valid_kin)):
@@ -428,7 +485,7 @@ class JPDATracker:
             if m and T:
                 d2 = np.full((m, T), 1e12)
                 for i in range(T):
-                    nu = z - zp_all[i]
+                    nu = zz - zp_all[i]
                     d2[:, i] = np.einsum("ij,jk,ik->i", nu, np.linalg.inv(S_all[i]), nu)
                 cost = np.where(valid, d2, 1e12)
                 rows, cols = linear_sum_assignment(cost)
@@ -462,7 +519,8 @@ class JPDATracker:
                     sub_lik = sub_lik * w
                 elif c.variant == "FJPDA":
                     sub_rho = rho[ix]
-                b, n = _jpda_marginals_checked(sub_lik, sub_valid, pd_arr, float(c.lam),
+                b, n = _jpda_marginals_checked(sub_lik, sub_valid, pd_arr,
+                                               float(c.clutter_density),
                                                sub_rho, False, 0.0, "auto")
                 n_events += n
                 beta[0, trk] = b[0]
@@ -478,10 +536,10 @@ class JPDATracker:
         for i, tr in enumerate(self.tracks):
             sel = np.nonzero(valid[:, i])[0]
             xo, Po = np.empty(nx), np.empty((nx, nx))
-            ok = pda_update_kernel(xp[i], Pp[i], np.ascontiguousarray(z[sel]), zp_all[i], self.H,
-                                   self.R, np.ascontiguousarray(beta[sel + 1, i]),
+            ok = pda_update_kernel(xp[i], Pp[i], np.ascontiguousarray(zz[sel]), zp_all[i],
+                                   self.H, self.R, np.ascontiguousarray(beta[sel + 1, i]),
                                    float(max(0.0, 1.0 - beta[sel + 1, i].sum())), -1, xo, Po,
-                                   np.empty(2), np.empty((2, 2)), np.empty((nx, 2)))
+                                   np.empty(nz), np.empty((nz, nz)), np.empty((nx, nz)))
             if not ok:
                 raise ValueError("innovation covariance lost positive definiteness")
             was_memory = tr.status == TrackStatus.MEMORY
@@ -504,7 +562,7 @@ class JPDATracker:
         keep = []
         for i, tr in enumerate(self.tracks):
             h = bool(hit[i])
-            Si = S_all[i]             # 2x2: largest eigenvalue in closed form
+            Si = S_all[i]   # its position block: largest eigenvalue in closed form
             half = 0.5 * (Si[0, 0] - Si[1, 1])
             lmax = 0.5 * (Si[0, 0] + Si[1, 1]) + math.sqrt(half * half + Si[0, 1] * Si[1, 0])
             semi = math.sqrt(c.gamma * lmax)
@@ -577,6 +635,7 @@ class JPDATracker:
                 self.tracks.append(self._new_track(z[j], P[p], masks[j]))
             new_prev = [j for j in cand if j not in cj]
         self.prev_z = z[new_prev].reshape(-1, 2)
+        self.prev_all = z
         self.prev_masks = [masks[j] for j in new_prev]
         snaps = tuple(TrackSnapshot(tr.tid, tr.status, float(tr.x[0]), float(tr.x[1]),
                                     tr.gate[0], tr.gate[1], self.k - tr.born)
@@ -585,6 +644,27 @@ class JPDATracker:
                           int(valid.sum()), tuple(deleted), assoc_ms, int(n_events_kin))
         self.k += 1
         return rep
+
+    def _measurements(self, z):
+        """``(zz, has_v)``: the measurement rows of the frame's positions ``z`` and, for
+        ``model="pv"``, which detections report a velocity (``None`` otherwise).  For
+        ``"pv"`` a row is (z_j, z_j - z_p), z_p the nearest detection of the previous
+        frame within the TSI radius; a row without one has velocity 0 and
+        ``has_v`` False (it is gated out)."""
+        if self.cfg.model != "pv":
+            return z, None
+        m = z.shape[0]
+        zz = np.zeros((m, 4))
+        zz[:, :2] = z
+        has_v = np.zeros(m, np.bool_)
+        P = self.prev_all
+        if m and len(P):
+            r = self.cfg.v_max * 1.0 + self.cfg.pair_margin
+            d = np.hypot(z[:, None, 0] - P[None, :, 0], z[:, None, 1] - P[None, :, 1])
+            p = np.argmin(d, axis=1)
+            has_v = d[np.arange(m), p] <= r
+            zz[has_v, 2:] = z[has_v] - P[p[has_v]]
+        return zz, has_v
 
     def _duplicates(self):
         c = self.cfg

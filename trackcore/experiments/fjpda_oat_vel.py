@@ -1,0 +1,82 @@
+"""Feature-JPDA chapter (004): the measurement reading "position and velocity" (issue 29).
+
+``fjpda-oat-vel``: the runs of ``fjpda-oat`` (:func:`~trackcore.experiments.fjpda_oat.oat_trial`:
+run ``i`` renders ``OAT_SCENES[i % 6]``, segmented once by ViBe) for the value the
+one-at-a-time store could not run, because the tracker had no such measurement: the
+detector reports the target's velocity as well as its position (``model="pv"`` of
+:class:`~trackcore.trackers.jpda_tracker.JPDATrackerConfig`, whose docstring states the
+reading).  JPDA and FJPDA run at the chapter's default cell (canvas correlation, template
+updated with guard, :func:`~trackcore.trackers.jpda_tracker.matched_config` for the
+scene's jitter, c_I 0.6, lam 1e-5) with ``model="pv"`` and, on the same render and
+detections, at the default cell itself, so that the pv cell's FJPDA - JPDA differences
+are paired within this store, on master seed :data:`FJPDA_OAT_VEL_SEED` (fresh: disjoint
+from ``fjpda-oat``'s, ``fjpda-confirm-s3``'s and the calibration renders' seeds).
+The rows are those of ``fjpda-oat`` for the value keys ``"default"`` and ``"pv"``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ._core import Experiment, register
+from .fjpda_oat import (
+    FJPDA_CALIBRATION_SEED,
+    FJPDA_OAT_SEED,
+    OAT_SCENES,
+    VARIED,
+    FjpdaOatConfig,
+    _oat_call,
+    _oat_extract,
+    oat_trial,
+)
+
+__all__ = ["FJPDA_OAT_VEL_SEED", "OAT_VEL_RUNS", "VARIED_VEL", "FjpdaOatVelConfig"]
+
+#: value key -> (reading, value as claims.yml names it, segmentation, tracker overrides)
+VARIED_VEL = {
+    "default": VARIED["default"],
+    "pv": ("measurement", "position and velocity", "vibe", {"model": "pv"}),
+}
+#: the master seed of fjpda-oat-vel (fjpda-oat: FJPDA_OAT_SEED, fjpda-confirm-s3: + 1,
+#: the calibration renders: + 2 to + 7)
+FJPDA_OAT_VEL_SEED = FJPDA_OAT_SEED + 10
+assert FJPDA_OAT_VEL_SEED > FJPDA_CALIBRATION_SEED + len(OAT_SCENES) - 1
+#: runs of fjpda-oat-vel: 200 per scene
+OAT_VEL_RUNS = 200 * len(OAT_SCENES)
+
+
+@dataclass(frozen=True)
+class FjpdaOatVelConfig(FjpdaOatConfig):
+    """:class:`~trackcore.experiments.fjpda_oat.FjpdaOatConfig` over the values of
+    :data:`VARIED_VEL` (``"default"`` first).
+
+    Examples
+    --------
+    >>> config = FjpdaOatVelConfig()
+    >>> config.values, len(config.scenes)
+    (('default', 'pv'), 6)
+    >>> method, pair = config.variants(3)["pv"]
+    >>> method, pair["FJPDA"].model, pair["JPDA"].model, round(pair["JPDA"].r_std, 2)
+    ('vibe', 'pv', 'pv', 5.1)
+    >>> FjpdaOatVelConfig(values=("default", "rw"))
+    Traceback (most recent call last):
+        ...
+    ValueError: unknown value 'rw' in values; expected some of ('default', 'pv')
+    """
+
+    values: tuple = tuple(VARIED_VEL)
+    _VARIED = VARIED_VEL
+
+
+def _register():
+    register(Experiment(
+        name="fjpda-oat-vel",
+        description=("Feature-JPDA chapter, the measurement reading 'position and "
+                     "velocity': JPDA and FJPDA at the default cell with the detector's "
+                     "velocity measured (model pv) and at the default cell, in glare, side "
+                     "by side, occlusion, S3 and the S1 layout under 5 and 3 px"),
+        trial=oat_trial, call=_oat_call, extract=_oat_extract, config=FjpdaOatVelConfig(),
+        seed=FJPDA_OAT_VEL_SEED, runs=OAT_VEL_RUNS, version="1",
+        notebook="book/004-feature-jpda/08-readings-one-at-a-time.ipynb"))
+
+
+_register()
