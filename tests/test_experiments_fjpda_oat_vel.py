@@ -1,0 +1,91 @@
+"""The feature-JPDA measurement reading "position and velocity" (issue 29, session 13): the
+config, one run against the one-at-a-time trial, the registered experiment and its store."""
+import numpy as np
+import pytest
+from _stores import corrupted_store
+
+from trackcore.core.rng import generator_for_run
+from trackcore.experiments import (
+    VerificationError,
+    get,
+    load,
+    names,
+    status,
+    verify_sample,
+)
+from trackcore.experiments.fjpda_oat import (
+    FJPDA_CALIBRATION_SEED,
+    OAT_SCENES,
+    FjpdaOatConfig,
+    oat_trial,
+)
+from trackcore.experiments.fjpda_oat_vel import (
+    FJPDA_OAT_VEL_SEED,
+    OAT_VEL_RUNS,
+    VARIED_VEL,
+    FjpdaOatVelConfig,
+)
+from trackcore.experiments.fjpda_readings import READINGS_SCENES
+
+NAME = "fjpda-oat-vel"
+RUN = 9  # scene 3: S3 under 5 px
+
+
+def test_config_validation_and_variants():
+    c = FjpdaOatVelConfig()
+    assert c.values == ("default", "pv") and c.scenes == OAT_SCENES, c
+    assert c.lam == FjpdaOatConfig().lam, "the matched densities, unused by these values"
+    for i, key in enumerate(OAT_SCENES):
+        v = c.variants(i)
+        assert list(v) == list(VARIED_VEL), list(v)
+        jit = READINGS_SCENES[key][1]
+        for t in ("JPDA", "FJPDA"):
+            pv, d = v["pv"][1][t], v["default"][1][t]
+            assert pv.model == "pv" and d.model == "cv", (pv, d)
+            assert pv.r_std == d.r_std == pytest.approx(np.hypot(1.0, jit)), key
+            assert pv.lam == d.lam == 1e-5 and pv.c_I == 0.6, pv
+        assert v["pv"][0] == v["default"][0] == "vibe", key
+    assert FjpdaOatConfig().variants(0)["default"] == c.variants(0)["default"], "same cell"
+    with pytest.raises(ValueError, match="unknown value 'rw'"):
+        FjpdaOatVelConfig(values=("default", "rw"))
+    with pytest.raises(ValueError, match="must start with 'default'"):
+        FjpdaOatVelConfig(values=("pv", "default"))
+    with pytest.raises(ValueError, match="unknown value 'pv'"):
+        FjpdaOatConfig(values=("default", "pv"))
+
+
+def test_registry_seed_and_count():
+    e = get(NAME)
+    assert (e.seed, e.runs) == (FJPDA_OAT_VEL_SEED, OAT_VEL_RUNS) == (20160935, 1200)
+    others = {get(n).seed for n in names() if n != NAME}
+    calibration = set(range(FJPDA_CALIBRATION_SEED, FJPDA_CALIBRATION_SEED + 6))
+    assert e.seed not in others | calibration, "a fresh master seed"
+    assert e.trial is get("fjpda-oat").trial and e.extract is get("fjpda-oat").extract
+
+
+def test_tiny_run_default_pair_matches_the_one_at_a_time_trial():
+    rng = lambda: generator_for_run(3, 2, 6)  # run 2: occlusion
+    i, out = oat_trial(rng(), FjpdaOatVelConfig())
+    j, ref = oat_trial(rng(), FjpdaOatConfig(values=("default",)))
+    assert i == j == 2 and sorted(out) == ["FJPDA default", "FJPDA pv", "JPDA default",
+                                           "JPDA pv"], sorted(out)
+    for t in ("JPDA", "FJPDA"):
+        assert out[f"{t} default"]._replace(assoc_ms=0.0) == ref[f"{t} default"]._replace(
+            assoc_ms=0.0), t
+    row = get(NAME).extract((i, out), FjpdaOatVelConfig())
+    assert row["scene"] == 2 and row["FJPDA pv.false_tracks"] >= 0, sorted(row)[:5]
+
+
+@pytest.fixture(scope="module")
+def stored():
+    if status(NAME) != "current":
+        pytest.skip("store not current")
+    return load(NAME)
+
+
+def test_verification_catches_a_corrupted_stored_row(stored, tmp_path):
+    assert np.array_equal(stored["scene"], np.arange(stored.runs) % 6), "scene cycle"
+    column = "FJPDA pv.false_tracks"
+    bad = corrupted_store(NAME, tmp_path, column, RUN)
+    with pytest.raises(VerificationError, match=f"run {RUN}, column '{column}'"):
+        verify_sample(bad, indices=[RUN])
