@@ -1,0 +1,174 @@
+"""Feature-JPDA chapter (004): the Fig 7 crossing under every reading (issue 29).
+
+``fjpda-crossing-oat``: the measurement-level crossing of
+``book/004-feature-jpda/07-extensions.ipynb`` at a closest approach of 3 px
+(:func:`~trackcore.scenarios.feature_metrics.crossing_trial`, the scene of
+:class:`~trackcore.experiments.fjpda_extensions.FjpdaCrossingConfig`), every tracker with
+the paper's duplicate rule (its complete tracker).  On each drawn crossing it runs, on
+the same detections, every cell of :data:`CELLS`:
+
+* the correlation x template grid (eight cells, FJPDA only: JPDA uses no correlation and
+  no template, so its outcome is the same in all eight; its one run is ``"JPDA cu"``);
+* the default cell (canvas, updated with guard) with one other reading changed, memory,
+  tsi, rho-weight, measurement or clutter-density, each applied to both trackers.
+
+Every tracker assumes the chapter's default clutter density, 1e-5 px^-2 (``lam``), except
+the cell ``"lam"``, which assumes the crossing's own foliage density, one blob per frame
+in its 120 x 120 px window (``lam_matched``, 1/120^2 px^-2, the density of the 07 runs).
+A row holds per tracker ``"<tracker> <cell>.crossing"``, the crossing outcome's code (an
+index into :data:`~trackcore.experiments.fjpda_extensions.CROSSING_OUTCOMES`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..scenarios.feature_metrics import crossing_trial
+from ._checks import check_finite, check_names
+from ._core import Experiment, register
+from .fjpda_extensions import CROSSING_OUTCOMES
+from .registry import _Config
+
+__all__ = ["CELLS", "CROSSING_OAT_RUNS", "FJPDA_CROSSING_OAT_SEED",
+           "FjpdaCrossingOatConfig", "cell_label"]
+
+_VISIBLE = {"template_update": False, "template_from": "fully_visible"}
+_SLIDING = {"correlation": "sliding"}
+_BOTH = ("JPDA", "FJPDA")
+#: cell key -> (reading varied alone or "" for the grid, its value as claims.yml names
+#: it (the grid: "correlation, template"), the trackers run, the trackers' overrides);
+#: "lam" takes the config's ``lam_matched``
+CELLS = {
+    "cu": ("", "canvas, updated with guard", _BOTH, {}),
+    "cn": ("", "canvas, updated without guard", ("FJPDA",), {"template_guard": False}),
+    "cf": ("", "canvas, fixed first", ("FJPDA",), {"template_update": False}),
+    "cv": ("", "canvas, first fully visible", ("FJPDA",), _VISIBLE),
+    "su": ("", "sliding, updated with guard", ("FJPDA",), _SLIDING),
+    "sn": ("", "sliding, updated without guard", ("FJPDA",),
+           {**_SLIDING, "template_guard": False}),
+    "sf": ("", "sliding, fixed first", ("FJPDA",), {**_SLIDING, "template_update": False}),
+    "sv": ("", "sliding, first fully visible", ("FJPDA",), {**_SLIDING, **_VISIBLE}),
+    "mem1": ("memory", "1", _BOTH, {"memory_frames": 1}),
+    "tsi": ("tsi", "not validated by the variant", _BOTH, {"tsi_from": "unvalidated"}),
+    "rho": ("rho-weight", "normalised per track", _BOTH, {"rho_weight": "normalised"}),
+    "rw": ("measurement", "position, random-walk state", _BOTH, {"model": "rw"}),
+    "lam": ("clutter-density", "matched to the scene", _BOTH, {}),
+}
+#: the master seed (fresh: no other experiment uses 20160325 + 770) and the crossings
+FJPDA_CROSSING_OAT_SEED = 20160325 + 770
+CROSSING_OAT_RUNS = 2000
+
+
+def cell_label(key):
+    """The claims.yml label of cell ``key`` (the grid's default cell is
+    ``"canvas, updated with guard"``).
+
+    Examples
+    --------
+    >>> cell_label("sf"), cell_label("mem1")
+    ('sliding, fixed first', 'canvas, updated with guard; memory: 1')
+    """
+    reading, value, _, _ = CELLS[key]
+    return f"{CELLS['cu'][1]}; {reading}: {value}" if reading else value
+
+
+@dataclass(frozen=True)
+class FjpdaCrossingOatConfig(_Config):
+    """The crossing under every reading: ``cells`` (keys of :data:`CELLS`, ``"cu"``
+    first), ``lam`` the clutter density (px^-2) every cell but ``"lam"`` assumes,
+    ``lam_matched`` the one cell ``"lam"`` assumes; the scene (``min_sep`` px,
+    ``heading_b_deg``, ``pd``, ``n_frames``, ``conflict``) as
+    :class:`~trackcore.experiments.fjpda_extensions.FjpdaCrossingConfig`.
+
+    Examples
+    --------
+    >>> config = FjpdaCrossingOatConfig()
+    >>> v = config.variants()
+    >>> len(v), list(v)[:3]
+    (19, ['JPDA cu', 'FJPDA cu', 'FJPDA cn'])
+    >>> v["FJPDA cu"].lam, round(v["JPDA lam"].lam * 120**2, 6), v["FJPDA rw"].model
+    (1e-05, 1.0, 'rw')
+    >>> all(c.duplicate_deletion for c in v.values())
+    True
+    >>> FjpdaCrossingOatConfig(cells=("mem1", "cu"))
+    Traceback (most recent call last):
+        ...
+    ValueError: cells must start with 'cu', got ('mem1', 'cu')
+    """
+
+    cells: tuple = tuple(CELLS)
+    lam: float = 1e-5
+    lam_matched: float = 1.0 / 120**2
+    min_sep: float = 3.0
+    heading_b_deg: float = 20.0
+    pd: float = 0.98
+    n_frames: int = 36
+    conflict: int = 18
+
+    _KINDS = {"cells": tuple, "lam": float, "lam_matched": float,  # noqa: RUF012
+              "min_sep": float, "heading_b_deg": float, "pd": float, "n_frames": int,
+              "conflict": int}
+
+    def __post_init__(self):
+        check_names(self.cells, "cells", tuple(CELLS), "cell")
+        if self.cells[0] != "cu":
+            raise ValueError(f"cells must start with 'cu', got {self.cells!r}")
+        for name in ("lam", "lam_matched", "min_sep", "heading_b_deg", "pd"):
+            check_finite(getattr(self, name), name)
+        for name in ("lam", "lam_matched"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        if self.min_sep < 0:
+            raise ValueError(f"min_sep must be >= 0, got {self.min_sep}")
+        if not 0 < self.pd <= 1:
+            raise ValueError(f"pd must be in (0, 1], got {self.pd}")
+        for name in ("n_frames", "conflict"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+                raise TypeError(f"{name} must be an integer, got {v!r}")
+        if not 3 <= self.n_frames <= 10_000:
+            raise ValueError(f"n_frames must be in [3, 10000], got {self.n_frames}")
+        if not 0 <= self.conflict < self.n_frames:
+            raise ValueError(f"conflict must be in [0, n_frames), got {self.conflict}")
+
+    def variants(self) -> dict:
+        """``{"<tracker> <cell>": JPDATrackerConfig}``, the duplicate rule on in every
+        one, in the order of ``cells`` (JPDA before FJPDA)."""
+        from ..trackers.jpda_tracker import JPDATrackerConfig
+
+        out = {}
+        for key in self.cells:
+            _, _, trackers, kw = CELLS[key]
+            lam = self.lam_matched if key == "lam" else self.lam
+            for t in trackers:
+                out[f"{t} {key}"] = JPDATrackerConfig(variant=t, lam=lam, **kw)
+        return out
+
+    def scene(self) -> dict:
+        """Keyword arguments of :func:`~trackcore.scenarios.feature_metrics.crossing_trial`."""
+        return {"heading_b": math.radians(self.heading_b_deg), "pd": self.pd,
+                "n_frames": self.n_frames, "conflict": self.conflict,
+                "min_sep": self.min_sep}
+
+
+def _call(config):
+    return (config.variants(),), config.scene()
+
+
+def _extract(out, config):
+    """Per tracker: the crossing outcome's code (int8, index into CROSSING_OUTCOMES)."""
+    return {f"{t}.crossing": np.int8(CROSSING_OUTCOMES.index(m.crossing))
+            for t, m in out.items()}
+
+
+register(Experiment(
+    name="fjpda-crossing-oat",
+    description=("Feature-JPDA chapter, the Fig 7 crossing under every reading: crossing "
+                 "outcomes at 3 px, duplicate rule on, of FJPDA in the correlation x "
+                 "template grid and of JPDA and FJPDA with memory, tsi, rho-weight, "
+                 "measurement and clutter-density changed one at a time"),
+    trial=crossing_trial, call=_call, extract=_extract, config=FjpdaCrossingOatConfig(),
+    seed=FJPDA_CROSSING_OAT_SEED, runs=CROSSING_OAT_RUNS, version="1",
+    notebook="book/004-feature-jpda/09-crossing-readings.ipynb"))
