@@ -150,3 +150,26 @@ def test_verification_catches_a_corrupted_stored_row(stored, tmp_path):
     bad = corrupted_store(NAME, tmp_path, column, RUN)
     with pytest.raises(VerificationError, match=f"run {RUN}, column '{column}'"):
         verify_sample(bad, indices=[RUN])
+
+
+@pytest.fixture(scope="module")
+def stored_vel():
+    if status(VEL) != "current":
+        pytest.skip("store not current")
+    return load(VEL)
+
+
+def test_stored_pv_row_equals_the_direct_run(stored_vel):
+    v = get(VEL)
+    row = v.row(generator_for_run(v.seed, RUN, v.runs), v.config)
+    assert sorted(row) == ["FJPDA pv.crossing", "JPDA pv.crossing"], sorted(row)
+    for k, x in row.items():
+        assert stored_vel.row(RUN)[k] == x, (k, stored_vel.row(RUN)[k], x)
+    assert stored_vel.runs == CROSSING_OAT_RUNS, stored_vel.runs
+
+
+def test_verification_catches_a_corrupted_stored_pv_row(stored_vel, tmp_path):
+    column = "FJPDA pv.crossing"
+    bad = corrupted_store(VEL, tmp_path, column, RUN)
+    with pytest.raises(VerificationError, match=f"run {RUN}, column '{column}'"):
+        verify_sample(bad, indices=[RUN])
