@@ -1,5 +1,6 @@
-"""Experiment fjpda-crossing-oat: the Fig 7 crossing under every reading (004-09, issue 29):
-the config, one run against the crossing of 07, the registered experiment and its store."""
+"""Experiments fjpda-crossing-oat and fjpda-crossing-oat-vel: the Fig 7 crossing under every
+reading (004-09, issue 29): the config, one run against the crossing of 07, the registered
+experiments (the pv store's runs are the same crossings) and their stores."""
 import numpy as np
 import pytest
 from _stores import corrupted_store
@@ -17,6 +18,7 @@ from trackcore.experiments.fjpda_crossing_oat import (
     CELLS,
     CROSSING_OAT_RUNS,
     FJPDA_CROSSING_OAT_SEED,
+    OAT_CELLS,
     FjpdaCrossingOatConfig,
     cell_label,
 )
@@ -25,9 +27,11 @@ from trackcore.experiments.fjpda_extensions import (
     FjpdaCrossingConfig,
 )
 from trackcore.scenarios.feature_metrics import crossing_trial
+from trackcore.scenarios.feature_scenes import crossing_detections
 from trackcore.trackers.jpda_tracker import JPDATrackerConfig
 
 NAME = "fjpda-crossing-oat"
+VEL = "fjpda-crossing-oat-vel"
 RUN = 11
 
 
@@ -48,7 +52,15 @@ def test_config_validation_and_variants():
     with pytest.raises(ValueError, match="must start with 'cu'"):
         FjpdaCrossingOatConfig(cells=("mem1", "cu"))
     with pytest.raises(ValueError, match="unknown cell"):
-        FjpdaCrossingOatConfig(cells=("cu", "pv"))
+        FjpdaCrossingOatConfig(cells=("cu", "pw"))
+    with pytest.raises(ValueError, match="must start with 'cu'"):
+        FjpdaCrossingOatConfig(cells=("pv", "sf"))
+    assert c.cells == OAT_CELLS and "pv" not in OAT_CELLS and len(CELLS) == 14
+    pv = FjpdaCrossingOatConfig(cells=("pv",)).variants()
+    assert list(pv) == ["JPDA pv", "FJPDA pv"], list(pv)
+    for t, cfg in pv.items():
+        ref = v[t.replace("pv", "cu")]
+        assert cfg == JPDATrackerConfig(**{**ref.__dict__, "model": "pv"}), t
     with pytest.raises(ValueError, match="lam_matched must be > 0"):
         FjpdaCrossingOatConfig(lam_matched=0.0)
     with pytest.raises(ValueError, match="conflict must be in"):
@@ -72,7 +84,7 @@ def test_cell_labels_are_the_registry_grid():
     grid = scorecard.reading_grid(data, claim)
     labels = {cell_label(k): k for k in CELLS}
     pending = [g for g in grid if g not in labels]
-    assert pending == ["canvas, updated with guard; measurement: position and velocity"], pending
+    assert pending == [], pending
     for label, key in labels.items():
         assert claim["ours"][label] == f"09-crossing-readings::fjpda_xo_{key}", label
 
@@ -94,8 +106,27 @@ def test_one_run_equals_the_crossing_trial():
 def test_registry_seed_and_runs():
     e = get(NAME)
     assert (e.seed, e.runs) == (FJPDA_CROSSING_OAT_SEED, CROSSING_OAT_RUNS) and e.runs >= 400
-    others = {get(n).seed for n in names() if n != NAME}
+    others = {get(n).seed for n in names() if n not in (NAME, VEL)}
     assert e.seed not in others, "a fresh master seed"
+
+
+def test_the_pv_store_runs_the_same_crossings():
+    e, v = get(NAME), get(VEL)
+    assert (v.seed, v.runs) == (e.seed, e.runs), "the same master seed and run count"
+    assert v.trial is e.trial and v.call is e.call and v.extract is e.extract
+    assert v.config == FjpdaCrossingOatConfig(cells=("pv",)), v.config
+    assert v.config.scene() == e.config.scene(), "the same crossing scene"
+    for i in (0, RUN, e.runs - 1):
+        a, _ = crossing_detections(generator_for_run(e.seed, i, e.runs), **e.config.scene())
+        b, _ = crossing_detections(generator_for_run(v.seed, i, v.runs), **v.config.scene())
+        assert len(a) == len(b), i
+        for k, (fa, fb) in enumerate(zip(a, b)):
+            for f in ("z", "boxes", "areas"):
+                assert np.array_equal(getattr(fa, f), getattr(fb, f)), (i, k, f)
+            for f in ("masks", "greys"):
+                x, y = getattr(fa, f), getattr(fb, f)
+                assert len(x) == len(y), (i, k, f)
+                assert all(np.array_equal(p, q) for p, q in zip(x, y)), (i, k, f)
 
 
 @pytest.fixture(scope="module")
@@ -117,5 +148,28 @@ def test_stored_row_equals_the_direct_run(stored):
 def test_verification_catches_a_corrupted_stored_row(stored, tmp_path):
     column = "FJPDA sf.crossing"
     bad = corrupted_store(NAME, tmp_path, column, RUN)
+    with pytest.raises(VerificationError, match=f"run {RUN}, column '{column}'"):
+        verify_sample(bad, indices=[RUN])
+
+
+@pytest.fixture(scope="module")
+def stored_vel():
+    if status(VEL) != "current":
+        pytest.skip("store not current")
+    return load(VEL)
+
+
+def test_stored_pv_row_equals_the_direct_run(stored_vel):
+    v = get(VEL)
+    row = v.row(generator_for_run(v.seed, RUN, v.runs), v.config)
+    assert sorted(row) == ["FJPDA pv.crossing", "JPDA pv.crossing"], sorted(row)
+    for k, x in row.items():
+        assert stored_vel.row(RUN)[k] == x, (k, stored_vel.row(RUN)[k], x)
+    assert stored_vel.runs == CROSSING_OAT_RUNS, stored_vel.runs
+
+
+def test_verification_catches_a_corrupted_stored_pv_row(stored_vel, tmp_path):
+    column = "FJPDA pv.crossing"
+    bad = corrupted_store(VEL, tmp_path, column, RUN)
     with pytest.raises(VerificationError, match=f"run {RUN}, column '{column}'"):
         verify_sample(bad, indices=[RUN])

@@ -17,6 +17,14 @@ the cell ``"lam"``, which assumes the crossing's own foliage density, one blob p
 in its 120 x 120 px window (``lam_matched``, 1/120^2 px^-2, the density of the 07 runs).
 A row holds per tracker ``"<tracker> <cell>.crossing"``, the crossing outcome's code (an
 index into :data:`~trackcore.experiments.fjpda_extensions.CROSSING_OUTCOMES`).
+
+``fjpda-crossing-oat-vel``: the measurement reading "position and velocity", which the
+tracker could not run when ``fjpda-crossing-oat`` was declared (``model="pv"`` of
+:class:`~trackcore.trackers.jpda_tracker.JPDATrackerConfig`, whose docstring states the
+reading): the cell ``"pv"`` alone (JPDA and FJPDA, every other reading at the default
+cell), on the same master seed and run count as ``fjpda-crossing-oat``, so that its run
+``i`` is the same crossing (the same detections) as run ``i`` there and the pv cell is
+paired with nothing outside its own row.
 """
 from __future__ import annotations
 
@@ -31,7 +39,7 @@ from ._core import Experiment, register
 from .fjpda_extensions import CROSSING_OUTCOMES
 from .registry import _Config
 
-__all__ = ["CELLS", "CROSSING_OAT_RUNS", "FJPDA_CROSSING_OAT_SEED",
+__all__ = ["CELLS", "CROSSING_OAT_RUNS", "FJPDA_CROSSING_OAT_SEED", "OAT_CELLS",
            "FjpdaCrossingOatConfig", "cell_label"]
 
 _VISIBLE = {"template_update": False, "template_from": "fully_visible"}
@@ -55,7 +63,10 @@ CELLS = {
     "rho": ("rho-weight", "normalised per track", _BOTH, {"rho_weight": "normalised"}),
     "rw": ("measurement", "position, random-walk state", _BOTH, {"model": "rw"}),
     "lam": ("clutter-density", "matched to the scene", _BOTH, {}),
+    "pv": ("measurement", "position and velocity", _BOTH, {"model": "pv"}),
 }
+#: the cells of fjpda-crossing-oat (every cell but "pv", the store of fjpda-crossing-oat-vel)
+OAT_CELLS = tuple(k for k in CELLS if k != "pv")
 #: the master seed (fresh: no other experiment uses 20160325 + 770) and the crossings
 FJPDA_CROSSING_OAT_SEED = 20160325 + 770
 CROSSING_OAT_RUNS = 2000
@@ -77,7 +88,8 @@ def cell_label(key):
 @dataclass(frozen=True)
 class FjpdaCrossingOatConfig(_Config):
     """The crossing under every reading: ``cells`` (keys of :data:`CELLS`, ``"cu"``
-    first), ``lam`` the clutter density (px^-2) every cell but ``"lam"`` assumes,
+    first if any grid cell is run, since the grid's FJPDA cells pair with ``"JPDA cu"``;
+    by default :data:`OAT_CELLS`), ``lam`` the clutter density (px^-2) every cell but ``"lam"`` assumes,
     ``lam_matched`` the one cell ``"lam"`` assumes; the scene (``min_sep`` px,
     ``heading_b_deg``, ``pd``, ``n_frames``, ``conflict``) as
     :class:`~trackcore.experiments.fjpda_extensions.FjpdaCrossingConfig`.
@@ -92,13 +104,15 @@ class FjpdaCrossingOatConfig(_Config):
     (1e-05, 1.0, 'rw')
     >>> all(c.duplicate_deletion for c in v.values())
     True
+    >>> [c.model for c in FjpdaCrossingOatConfig(cells=("pv",)).variants().values()]
+    ['pv', 'pv']
     >>> FjpdaCrossingOatConfig(cells=("mem1", "cu"))
     Traceback (most recent call last):
         ...
     ValueError: cells must start with 'cu', got ('mem1', 'cu')
     """
 
-    cells: tuple = tuple(CELLS)
+    cells: tuple = OAT_CELLS
     lam: float = 1e-5
     lam_matched: float = 1.0 / 120**2
     min_sep: float = 3.0
@@ -113,7 +127,7 @@ class FjpdaCrossingOatConfig(_Config):
 
     def __post_init__(self):
         check_names(self.cells, "cells", tuple(CELLS), "cell")
-        if self.cells[0] != "cu":
+        if any(not CELLS[k][0] for k in self.cells) and self.cells[0] != "cu":
             raise ValueError(f"cells must start with 'cu', got {self.cells!r}")
         for name in ("lam", "lam_matched", "min_sep", "heading_b_deg", "pd"):
             check_finite(getattr(self, name), name)
@@ -170,5 +184,16 @@ register(Experiment(
                  "template grid and of JPDA and FJPDA with memory, tsi, rho-weight, "
                  "measurement and clutter-density changed one at a time"),
     trial=crossing_trial, call=_call, extract=_extract, config=FjpdaCrossingOatConfig(),
+    seed=FJPDA_CROSSING_OAT_SEED, runs=CROSSING_OAT_RUNS, version="1",
+    notebook="book/004-feature-jpda/09-crossing-readings.ipynb"))
+
+register(Experiment(
+    name="fjpda-crossing-oat-vel",
+    description=("Feature-JPDA chapter, the Fig 7 crossing with the detector's velocity "
+                 "measured: crossing outcomes at 3 px, duplicate rule on, of JPDA and "
+                 "FJPDA with model pv at the default cell, on the crossings of "
+                 "fjpda-crossing-oat (same seed and runs)"),
+    trial=crossing_trial, call=_call, extract=_extract,
+    config=FjpdaCrossingOatConfig(cells=("pv",)),
     seed=FJPDA_CROSSING_OAT_SEED, runs=CROSSING_OAT_RUNS, version="1",
     notebook="book/004-feature-jpda/09-crossing-readings.ipynb"))
