@@ -151,9 +151,10 @@ class JPDATrackerConfig:
       on 2 dof (:attr:`gate_gamma`, 13.28 for 9.21), the clutter density is ``lam``
       times a uniform density of clutter velocities over |v_x|, |v_y| <= r
       (:attr:`clutter_density`, ``lam / (2 r)^2``).  A detection with no detection of
-      frame k-1 within r reports no velocity: no track validates it (it is not a 4-D
-      measurement, and one JPDA over mixed 2-D and 4-D likelihoods would compare
-      densities of different dimension), and, being outside every gate, it may start a
+      frame k-1 within r reports no velocity: no track validates it (our simplification:
+      JPDA could weigh it by its 2-D likelihood over the 2-D clutter density, since each
+      ratio of a likelihood to its clutter density has no unit, but the tracker keeps one
+      clutter density per association), and, being outside every gate, it may start a
       track by TSI (as the previous detection of the next frame's pair).  TSI, the
       gate-size rule and the gate half-widths are the CV model's (the position block of
       S with ``gamma``).
