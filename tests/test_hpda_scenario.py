@@ -268,3 +268,24 @@ def test_metrics_and_delays_check_their_inputs():
         track_delays(run, truth, radius=float("nan"))
     conf, term = track_delays(run, truth)
     assert np.isnan(conf[0]) and conf.shape == (6,)
+
+
+def test_scan_order_is_lexsort():
+    """The scans' shuffle (_scan_order) is np.lexsort((key, scan)) exactly, ties in the
+    key (broken by index) and empty scans included."""
+    from trackcore.scenarios.hpda_scenario import _scan_order
+
+    rng = np.random.default_rng(7)
+    for n, K in ((0, 3), (1, 1), (9, 4), (500, 7), (5000, 451)):
+        # two runs each sorted by scan, as simulate_hpda_scans concatenates them
+        cut = n // 3
+        scan = np.concatenate([np.sort(rng.integers(0, K, cut)),
+                               np.sort(rng.integers(0, K, n - cut))]).astype(np.int64)
+        key = rng.random(n)
+        if n >= 9:
+            key[: n // 3] = key[n // 3: 2 * (n // 3)]  # exact ties in the key
+        offsets = np.zeros(K + 1, dtype=np.int64)
+        np.cumsum(np.bincount(scan, minlength=K), out=offsets[1:])
+        np.testing.assert_array_equal(_scan_order(scan, key, offsets),
+                                      np.lexsort((key, scan)),
+                                      err_msg=f"n = {n}, K = {K}: not lexsort's permutation")

