@@ -82,7 +82,10 @@ def test_cell_labels_are_the_registry_grid():
     data = scorecard.load(path)
     claim = next(c for c in data["claims"] if c["id"] == "fjpda-fig7-crossing")
     grid = scorecard.reading_grid(data, claim)
+    from trackcore.experiments.fjpda_crossing_oat import READINGS2_CELLS
+
     labels = {cell_label(k): k for k in CELLS}
+    labels |= {f"{cell_label('cu')}; {r}: {v}": k for k, (r, v, *_) in READINGS2_CELLS.items()}
     pending = [g for g in grid if g not in labels]
     assert pending == [], pending
     for label, key in labels.items():
@@ -171,5 +174,57 @@ def test_stored_pv_row_equals_the_direct_run(stored_vel):
 def test_verification_catches_a_corrupted_stored_pv_row(stored_vel, tmp_path):
     column = "FJPDA pv.crossing"
     bad = corrupted_store(VEL, tmp_path, column, RUN)
+    with pytest.raises(VerificationError, match=f"run {RUN}, column '{column}'"):
+        verify_sample(bad, indices=[RUN])
+
+
+R2 = "fjpda-crossing-readings2"
+
+
+def test_readings2_config_and_labels():
+    from trackcore.experiments.fjpda_crossing_oat import (
+        FJPDA_CROSSING_READINGS2_SEED,
+        READINGS2_CELLS,
+        FjpdaCrossingReadings2Config,
+    )
+
+    e = get(R2)
+    assert (e.seed, e.runs) == (FJPDA_CROSSING_READINGS2_SEED, CROSSING_OAT_RUNS)
+    others = {get(n).seed for n in names() if n != R2}
+    assert e.seed not in others, "a fresh master seed"
+    assert not 1300000001 <= e.seed <= 1300000010, "not the review's seeds"
+    groups = {k: (v, s) for k, v, s in e.config.groups()}
+    assert list(groups) == list(READINGS2_CELLS), list(groups)
+    default = FjpdaCrossingOatConfig()
+    for key, (variants, scene) in groups.items():
+        _, _, sep, d_dup = READINGS2_CELLS[key]
+        assert scene == {**default.scene(), "min_sep": sep}, key
+        assert list(variants) == ["JPDA", "FJPDA"], key
+        for t, cfg in variants.items():
+            ref = default.variants()[f"{t} cu"]
+            assert cfg == JPDATrackerConfig(**{**ref.__dict__, "d_dup": d_dup}), (key, t)
+    assert groups["dd2"][1]["min_sep"] == 3.0 and groups["dd2"][0]["FJPDA"].d_dup == 2.0
+    with pytest.raises(ValueError, match="unknown cell"):
+        FjpdaCrossingReadings2Config(cells=("dd3",))
+
+
+@pytest.fixture(scope="module")
+def stored_r2():
+    if status(R2) != "current":
+        pytest.skip("store not current")
+    return load(R2)
+
+
+def test_stored_readings2_row_equals_the_direct_run(stored_r2):
+    e = get(R2)
+    row = e.row(generator_for_run(e.seed, RUN, e.runs), e.config)
+    assert len(row) == 8 and row.keys() == stored_r2.row(RUN).keys(), sorted(row)
+    for k, x in row.items():
+        assert stored_r2.row(RUN)[k] == x, (k, stored_r2.row(RUN)[k], x)
+
+
+def test_verification_catches_a_corrupted_stored_readings2_row(stored_r2, tmp_path):
+    column = "FJPDA dd2.crossing"
+    bad = corrupted_store(R2, tmp_path, column, RUN)
     with pytest.raises(VerificationError, match=f"run {RUN}, column '{column}'"):
         verify_sample(bad, indices=[RUN])

@@ -89,3 +89,53 @@ def test_verification_catches_a_corrupted_stored_row(stored, tmp_path):
     bad = corrupted_store(NAME, tmp_path, column, RUN)
     with pytest.raises(VerificationError, match=f"run {RUN}, column '{column}'"):
         verify_sample(bad, indices=[RUN])
+
+
+DUP = "fjpda-oat-dup"
+
+
+def test_dup_config_and_registry():
+    from trackcore.experiments.fjpda_oat_vel import (
+        FJPDA_OAT_DUP_SEED,
+        VARIED_DUP,
+        FjpdaOatDupConfig,
+    )
+
+    c = FjpdaOatDupConfig()
+    assert c.values == ("default", "dd2") and list(VARIED_DUP) == list(c.values), c
+    for i, key in enumerate(OAT_SCENES):
+        v = c.variants(i)
+        assert v["default"] == FjpdaOatConfig().variants(i)["default"], key
+        for t in ("JPDA", "FJPDA"):
+            dd, d = v["dd2"][1][t], v["default"][1][t]
+            assert dd.d_dup == 2.0 and d.d_dup == 5.0 and dd.duplicate_deletion, key
+            assert dd == type(d)(**{**d.__dict__, "d_dup": 2.0}), (key, t)
+    e = get(DUP)
+    assert (e.seed, e.runs) == (FJPDA_OAT_DUP_SEED, OAT_VEL_RUNS) == (20160945, 1200)
+    others = {get(n).seed for n in names() if n != DUP}
+    calibration = set(range(FJPDA_CALIBRATION_SEED, FJPDA_CALIBRATION_SEED + 6))
+    assert e.seed not in others | calibration, "a fresh master seed"
+    assert not 1300000001 <= e.seed <= 1300000010, "not the review's seeds"
+
+
+@pytest.fixture(scope="module")
+def stored_dup():
+    if status(DUP) != "current":
+        pytest.skip("store not current")
+    return load(DUP)
+
+
+def test_stored_dup_row_equals_the_direct_run(stored_dup):
+    e = get(DUP)
+    row = e.row(generator_for_run(e.seed, RUN, e.runs), e.config)
+    assert row.keys() == stored_dup.row(RUN).keys(), sorted(row)[:5]
+    for k, x in row.items():
+        if not k.endswith("assoc_ms"):
+            assert stored_dup.row(RUN)[k] == x, (k, stored_dup.row(RUN)[k], x)
+
+
+def test_verification_catches_a_corrupted_stored_dup_row(stored_dup, tmp_path):
+    column = "FJPDA dd2.false_tracks"
+    bad = corrupted_store(DUP, tmp_path, column, RUN)
+    with pytest.raises(VerificationError, match=f"run {RUN}, column '{column}'"):
+        verify_sample(bad, indices=[RUN])

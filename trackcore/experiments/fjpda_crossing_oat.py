@@ -25,6 +25,14 @@ reading): the cell ``"pv"`` alone (JPDA and FJPDA, every other reading at the de
 cell), on the same master seed and run count as ``fjpda-crossing-oat``, so that its run
 ``i`` is the same crossing (the same detections) as run ``i`` there and the pv cell is
 paired with nothing outside its own row.
+
+``fjpda-crossing-readings2``: the two readings declared after the session-13 review,
+each cell of :data:`READINGS2_CELLS` JPDA and FJPDA at the default cell (canvas, updated
+with guard, 1e-5 px^-2, duplicate rule on) with one reading changed: the duplicate
+distance ``d_dup`` 2 px (at the 3 px closest approach) or the closest approach 2, 4 or
+5 px (at ``d_dup`` 5 px).  Each cell draws its own crossing from the run's stream, in
+the order of the cells (:func:`readings2_trial`); within a cell both trackers run on the
+same detections, so each cell is paired within itself.
 """
 from __future__ import annotations
 
@@ -39,8 +47,10 @@ from ._core import Experiment, register
 from .fjpda_extensions import CROSSING_OUTCOMES
 from .registry import _Config
 
-__all__ = ["CELLS", "CROSSING_OAT_RUNS", "FJPDA_CROSSING_OAT_SEED", "OAT_CELLS",
-           "FjpdaCrossingOatConfig", "cell_label"]
+__all__ = ["CELLS", "CROSSING_OAT_RUNS", "FJPDA_CROSSING_OAT_SEED",
+           "FJPDA_CROSSING_READINGS2_SEED", "OAT_CELLS", "READINGS2_CELLS",
+           "FjpdaCrossingOatConfig", "FjpdaCrossingReadings2Config", "cell_label",
+           "readings2_trial"]
 
 _VISIBLE = {"template_update": False, "template_from": "fully_visible"}
 _SLIDING = {"correlation": "sliding"}
@@ -196,4 +206,92 @@ register(Experiment(
     trial=crossing_trial, call=_call, extract=_extract,
     config=FjpdaCrossingOatConfig(cells=("pv",)),
     seed=FJPDA_CROSSING_OAT_SEED, runs=CROSSING_OAT_RUNS, version="1",
+    notebook="book/004-feature-jpda/09-crossing-readings.ipynb"))
+
+
+#: cell key -> (reading, its value as claims.yml names it, closest approach px, d_dup px)
+READINGS2_CELLS = {
+    "dd2": ("duplicate-distance", "2 px", 3.0, 2.0),
+    "ca2": ("closest-approach", "2 px", 2.0, 5.0),
+    "ca4": ("closest-approach", "4 px", 4.0, 5.0),
+    "ca5": ("closest-approach", "5 px", 5.0, 5.0),
+}
+#: the master seed of fjpda-crossing-readings2 (fresh: no other experiment, notebook or
+#: review uses 20160325 + 780)
+FJPDA_CROSSING_READINGS2_SEED = 20160325 + 780
+
+
+def readings2_trial(rng, groups):
+    """One run of fjpda-crossing-readings2: for each ``(key, variants, scene)`` of
+    ``groups`` in order, one crossing drawn from ``rng`` and every tracker of
+    ``variants`` run on it (:func:`~trackcore.scenarios.feature_metrics.crossing_trial`).
+    Returns ``{"<tracker> <key>": SceneMetrics}``."""
+    out = {}
+    for key, variants, scene in groups:
+        res = crossing_trial(rng, variants, **scene)
+        out |= {f"{t} {key}": m for t, m in res.items()}
+    return out
+
+
+@dataclass(frozen=True)
+class FjpdaCrossingReadings2Config(_Config):
+    """The crossing with the duplicate distance or the closest approach changed:
+    ``cells`` (keys of :data:`READINGS2_CELLS`), ``lam`` the clutter density every
+    tracker assumes; the rest of the scene as :class:`FjpdaCrossingOatConfig`.
+
+    Examples
+    --------
+    >>> c = FjpdaCrossingReadings2Config()
+    >>> [(k, v["JPDA"].d_dup, s["min_sep"]) for k, v, s in c.groups()]
+    [('dd2', 2.0, 3.0), ('ca2', 5.0, 2.0), ('ca4', 5.0, 4.0), ('ca5', 5.0, 5.0)]
+    >>> all(cfg.duplicate_deletion for _, v, _ in c.groups() for cfg in v.values())
+    True
+    """
+
+    cells: tuple = tuple(READINGS2_CELLS)
+    lam: float = 1e-5
+    heading_b_deg: float = 20.0
+    pd: float = 0.98
+    n_frames: int = 36
+    conflict: int = 18
+
+    _KINDS = {"cells": tuple, "lam": float, "heading_b_deg": float,  # noqa: RUF012
+              "pd": float, "n_frames": int, "conflict": int}
+
+    def __post_init__(self):
+        check_names(self.cells, "cells", tuple(READINGS2_CELLS), "cell")
+        FjpdaCrossingOatConfig(cells=("cu",), lam=self.lam,
+                               heading_b_deg=self.heading_b_deg, pd=self.pd,
+                               n_frames=self.n_frames, conflict=self.conflict)
+
+    def groups(self) -> tuple:
+        """``((key, {"JPDA": cfg, "FJPDA": cfg}, scene kwargs), ...)`` in the order of
+        ``cells``, the duplicate rule on in every tracker."""
+        from ..trackers.jpda_tracker import JPDATrackerConfig
+
+        out = []
+        for key in self.cells:
+            _, _, sep, d_dup = READINGS2_CELLS[key]
+            base = FjpdaCrossingOatConfig(cells=("cu",), lam=self.lam, min_sep=sep,
+                                          heading_b_deg=self.heading_b_deg, pd=self.pd,
+                                          n_frames=self.n_frames, conflict=self.conflict)
+            variants = {t: JPDATrackerConfig(variant=t, lam=self.lam, d_dup=d_dup)
+                        for t in _BOTH}
+            out.append((key, variants, base.scene()))
+        return tuple(out)
+
+
+def _call2(config):
+    return (config.groups(),), {}
+
+
+register(Experiment(
+    name="fjpda-crossing-readings2",
+    description=("Feature-JPDA chapter, the Fig 7 crossing under the two readings "
+                 "declared after the session-13 review: crossing outcomes of JPDA and "
+                 "FJPDA at the default cell, duplicate rule on, with d_dup 2 px at 3 px "
+                 "or the closest approach 2, 4 or 5 px at d_dup 5 px"),
+    trial=readings2_trial, call=_call2,
+    extract=_extract, config=FjpdaCrossingReadings2Config(),
+    seed=FJPDA_CROSSING_READINGS2_SEED, runs=CROSSING_OAT_RUNS, version="1",
     notebook="book/004-feature-jpda/09-crossing-readings.ipynb"))

@@ -12,6 +12,12 @@ detections, at the default cell itself, so that the pv cell's FJPDA - JPDA diffe
 are paired within this store, on master seed :data:`FJPDA_OAT_VEL_SEED` (fresh: disjoint
 from ``fjpda-oat``'s, ``fjpda-confirm-s3``'s and the calibration renders' seeds).
 The rows are those of ``fjpda-oat`` for the value keys ``"default"`` and ``"pv"``.
+
+``fjpda-oat-dup``: the same design for the reading "duplicate-distance" declared after the
+session-13 review: JPDA and FJPDA at the default cell with ``d_dup`` 2 px (not scaled
+with the jitter, as the default 5 px is not) and, on the same render and detections, at
+the default cell itself, 200 fresh seeds per scene, master seed
+:data:`FJPDA_OAT_DUP_SEED`.
 """
 from __future__ import annotations
 
@@ -29,7 +35,8 @@ from .fjpda_oat import (
     oat_trial,
 )
 
-__all__ = ["FJPDA_OAT_VEL_SEED", "OAT_VEL_RUNS", "VARIED_VEL", "FjpdaOatVelConfig"]
+__all__ = ["FJPDA_OAT_DUP_SEED", "FJPDA_OAT_VEL_SEED", "OAT_VEL_RUNS", "VARIED_DUP",
+           "VARIED_VEL", "FjpdaOatDupConfig", "FjpdaOatVelConfig"]
 
 #: value key -> (reading, value as claims.yml names it, segmentation, tracker overrides)
 VARIED_VEL = {
@@ -40,7 +47,14 @@ VARIED_VEL = {
 #: the calibration renders: + 2 to + 7)
 FJPDA_OAT_VEL_SEED = FJPDA_OAT_SEED + 10
 assert FJPDA_OAT_VEL_SEED > FJPDA_CALIBRATION_SEED + len(OAT_SCENES) - 1
-#: runs of fjpda-oat-vel: 200 per scene
+#: value key -> (reading, value, segmentation, tracker overrides) of fjpda-oat-dup
+VARIED_DUP = {
+    "default": VARIED["default"],
+    "dd2": ("duplicate-distance", "2 px", "vibe", {"d_dup": 2.0}),
+}
+#: the master seed of fjpda-oat-dup (fresh: no other store, notebook or review uses it)
+FJPDA_OAT_DUP_SEED = FJPDA_OAT_SEED + 20
+#: runs of fjpda-oat-vel (and fjpda-oat-dup): 200 per scene
 OAT_VEL_RUNS = 200 * len(OAT_SCENES)
 
 
@@ -67,6 +81,22 @@ class FjpdaOatVelConfig(FjpdaOatConfig):
     _VARIED = VARIED_VEL
 
 
+@dataclass(frozen=True)
+class FjpdaOatDupConfig(FjpdaOatConfig):
+    """:class:`~trackcore.experiments.fjpda_oat.FjpdaOatConfig` over the values of
+    :data:`VARIED_DUP` (``"default"`` first).
+
+    Examples
+    --------
+    >>> method, pair = FjpdaOatDupConfig().variants(3)["dd2"]
+    >>> method, pair["FJPDA"].d_dup, pair["JPDA"].d_dup, pair["JPDA"].duplicate_deletion
+    ('vibe', 2.0, 2.0, True)
+    """
+
+    values: tuple = tuple(VARIED_DUP)
+    _VARIED = VARIED_DUP
+
+
 def _register():
     register(Experiment(
         name="fjpda-oat-vel",
@@ -76,6 +106,16 @@ def _register():
                      "by side, occlusion, S3 and the S1 layout under 5 and 3 px"),
         trial=oat_trial, call=_oat_call, extract=_oat_extract, config=FjpdaOatVelConfig(),
         seed=FJPDA_OAT_VEL_SEED, runs=OAT_VEL_RUNS, version="1",
+        notebook="book/004-feature-jpda/08-readings-one-at-a-time.ipynb"))
+
+    register(Experiment(
+        name="fjpda-oat-dup",
+        description=("Feature-JPDA chapter, the reading 'duplicate-distance': JPDA and "
+                     "FJPDA at the default cell with d_dup 2 px and at the default cell, "
+                     "in glare, side by side, occlusion, S3 and the S1 layout under 5 and "
+                     "3 px"),
+        trial=oat_trial, call=_oat_call, extract=_oat_extract, config=FjpdaOatDupConfig(),
+        seed=FJPDA_OAT_DUP_SEED, runs=OAT_VEL_RUNS, version="1",
         notebook="book/004-feature-jpda/08-readings-one-at-a-time.ipynb"))
 
 
