@@ -225,7 +225,18 @@ def readings2_trial(rng, groups):
     """One run of fjpda-crossing-readings2: for each ``(key, variants, scene)`` of
     ``groups`` in order, one crossing drawn from ``rng`` and every tracker of
     ``variants`` run on it (:func:`~trackcore.scenarios.feature_metrics.crossing_trial`).
-    Returns ``{"<tracker> <key>": SceneMetrics}``."""
+    Returns ``{"<tracker> <key>": SceneMetrics}``.
+
+    Examples
+    --------
+    The first group of the store's config (the duplicate distance at 2 px), on one crossing:
+
+    >>> import numpy as np
+    >>> groups = FjpdaCrossingReadings2Config().groups()[:1]
+    >>> out = readings2_trial(np.random.default_rng(0), groups)
+    >>> sorted(out)
+    ['FJPDA dd2', 'JPDA dd2']
+    """
     out = {}
     for key, variants, scene in groups:
         res = crossing_trial(rng, variants, **scene)
