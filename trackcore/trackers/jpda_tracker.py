@@ -149,7 +149,7 @@ class JPDATrackerConfig:
       of v_j with the previous frame's measurement, already used by the filter, is
       ignored).  The gate is chi-square on 4 dof at the gate probability of ``gamma``
       on 2 dof (:attr:`gate_gamma`, 13.28 for 9.21), the clutter density is ``lam``
-      times a uniform density of clutter velocities over |v_x|, |v_y| <= r
+      times a uniform density of clutter velocities over ``|v_x|, |v_y| <= r``
       (:attr:`clutter_density`, ``lam / (2 r)^2``).  A detection with no detection of
       frame k-1 within r reports no velocity: no track validates it (our simplification:
       JPDA could weigh it by its 2-D likelihood over the 2-D clutter density, since each
@@ -250,7 +250,7 @@ class JPDATrackerConfig:
     def clutter_density(self):
         """The clutter density of the association: ``lam`` (px^-2) for the position
         models; for ``model="pv"`` ``lam / (2 r)^2`` (clutter velocities uniform over
-        |v_x|, |v_y| <= r, r = v_max T + pair_margin the TSI radius)."""
+        ``|v_x|, |v_y| <= r``, ``r = v_max T + pair_margin`` the TSI radius)."""
         if self.model != "pv":
             return self.lam
         return self.lam / (2.0 * (self.v_max * 1.0 + self.pair_margin)) ** 2
