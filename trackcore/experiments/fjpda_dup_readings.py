@@ -180,7 +180,14 @@ def follower_tracked(delay, within=FOLLOW_WITHIN):
 
 
 class DupRuleEffect(NamedTuple):
-    """The duplicate rule, with minus without on the same runs (:func:`dup_rule_effect`)."""
+    """The duplicate rule, with minus without on the same runs (:func:`dup_rule_effect`).
+
+    Examples
+    --------
+    >>> e = dup_rule_effect([3, -1] * 30, [3, 3] * 30, [1] * 60, [2] * 60)
+    >>> e.only_with, e.only_without, format(e.follow_with, ".2f")
+    (0, 30, '0.50 [0.38, 0.62]')
+    """
 
     follow_with: object     # share of runs with the follower tracked, with the rule (Wilson)
     follow_without: object  # the same without it
