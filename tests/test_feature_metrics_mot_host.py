@@ -2,29 +2,24 @@
 be those of a fresh host per call (the way they were computed before), bit for bit."""
 import numpy as np
 
+from trackcore.scenarios import feature_metrics
 from trackcore.scenarios.feature_metrics import MOT_METRICS, clear_mot_metrics
 from trackcore.scenarios.feature_scenes import crossing_detections
 from trackcore.trackers.jpda_tracker import JPDATrackerConfig, run_jpda_tracker
 
 
-def _fresh_host(scene, reports, match_gate=10.0):
-    """The metrics as a fresh ``metrics.create()`` and its one-row DataFrame give them."""
-    import motmetrics as mm
-
-    veh = np.nonzero(scene.is_vehicle)[0]
-    acc = mm.MOTAccumulator(auto_id=True)
-    for k in range(scene.xy.shape[0]):
-        objs = [int(o) for o in veh if scene.present[k, o]]
-        tr = [s for s in reports[k].tracks if s.status in ("confirmed", "memory")]
-        D = np.full((len(objs), len(tr)), np.nan)
-        if objs and tr:
-            P = np.array([[s.x, s.y] for s in tr])
-            X = scene.xy[k, objs]
-            D = np.hypot(X[:, None, 0] - P[None, :, 0], X[:, None, 1] - P[None, :, 1])
-            D[D > match_gate] = np.nan
-        acc.update(objs, [s.tid for s in tr], D)
-    out = mm.metrics.create().compute(acc, metrics=list(MOT_METRICS), name="run").iloc[0]
-    return {name: float(out[name]) for name in MOT_METRICS}
+def _fresh_host(scene, reports):
+    """The metrics with a metrics host built for this call alone (the cache emptied
+    before and after, so the reused host of the other calls is not touched)."""
+    saved = list(feature_metrics._MOT_HOST)
+    feature_metrics._MOT_HOST.clear()
+    try:
+        out = clear_mot_metrics(scene, reports)
+        fresh = feature_metrics._MOT_HOST[0]
+    finally:
+        feature_metrics._MOT_HOST[:] = saved
+    assert not saved or fresh is not saved[0], "the oracle must use its own host"
+    return out
 
 
 def test_reused_host_gives_a_fresh_hosts_numbers():

@@ -36,7 +36,6 @@ same detections, so each cell is paired within itself.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,7 +43,7 @@ import numpy as np
 from ..scenarios.feature_metrics import crossing_trial
 from ._checks import check_finite, check_names
 from ._core import Experiment, register
-from .fjpda_extensions import CROSSING_OUTCOMES
+from .fjpda_extensions import CROSSING_OUTCOMES, _crossing_scene
 from .registry import _Config
 
 __all__ = ["CELLS", "CROSSING_OAT_RUNS", "FJPDA_CROSSING_OAT_SEED",
@@ -172,9 +171,7 @@ class FjpdaCrossingOatConfig(_Config):
 
     def scene(self) -> dict:
         """Keyword arguments of :func:`~trackcore.scenarios.feature_metrics.crossing_trial`."""
-        return {"heading_b": math.radians(self.heading_b_deg), "pd": self.pd,
-                "n_frames": self.n_frames, "conflict": self.conflict,
-                "min_sep": self.min_sep}
+        return _crossing_scene(self)
 
 
 def _call(config):

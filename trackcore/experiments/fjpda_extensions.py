@@ -117,9 +117,17 @@ class FjpdaCrossingConfig(_Config):
 
     def scene(self) -> dict:
         """Keyword arguments of :func:`~trackcore.scenarios.feature_metrics.crossing_trial`."""
-        return {"heading_b": math.radians(self.heading_b_deg), "pd": self.pd,
-                "n_frames": self.n_frames, "conflict": self.conflict,
-                "min_sep": self.min_sep}
+        return _crossing_scene(self)
+
+
+def _crossing_scene(config) -> dict:
+    """The crossing's keyword arguments of
+    :func:`~trackcore.scenarios.feature_metrics.crossing_trial` from a config with
+    ``heading_b_deg``, ``pd``, ``n_frames``, ``conflict`` and ``min_sep`` (shared by every
+    crossing experiment of the chapter)."""
+    return {"heading_b": math.radians(config.heading_b_deg), "pd": config.pd,
+            "n_frames": config.n_frames, "conflict": config.conflict,
+            "min_sep": config.min_sep}
 
 
 def _call(config):
