@@ -1796,6 +1796,13 @@ def match_tracks():
 
 
 @example()
+def same_frames_error():
+    a = np.array([[0.5, np.nan], [3.0, 1.0], [2.0, 1.5]])
+    b = np.array([[np.nan, np.nan], [2.5, 0.5], [1.0, 2.5]])
+    return call(a, b)
+
+
+@example()
 def scene_metrics():
     return call(scene(), _reports(), 10.0)
 

@@ -62,7 +62,7 @@ DATA_RECORDS = {
     "OSPAResult", "PairedComparison", "PDAUpdate", "RandomManoeuvre", "SceneMetrics", "SceneTrial",
     "SmcPhdFilterRun", "SmcPhdStep", "SmcPhdUpdate", "SprtAcmDiscrimination", "SprtResult",
     "SprtSummary", "TbdErrorSummary", "TbdTrackResult", "TbdTrialResult", "TrackSnapshot",
-    "TrackerRun", "FailureComparison", "MapTrackResult", "TbdRunOutcomes",
+    "TrackerRun", "FailureComparison", "MapTrackResult", "TbdRunOutcomes", "SameFrames",
     # simulated data passed on to trackers and metrics
     "FeatureScene", "HoulesScans", "HpdaScans", "HpdaTruth", "ImageDetections",
     "SprtAcmMeasurements", "SprtAcmTruth", "TbdRadarScans", "TbdRadarTruth",
