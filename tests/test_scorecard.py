@@ -150,7 +150,7 @@ def _nb(path, glued):
     path.write_text(json.dumps(nb), encoding="utf-8")
 
 
-def _registry(tmp_path, claims, readings=None):
+def _registry(tmp_path, claims, readings=None, premises=None):
     ch = tmp_path / "000-x"
     ch.mkdir()
     (ch / "index.md").write_text("# X\n\n## Our targets\n\n| id | t |\n|--|--|\n| T1 | a |\n",
@@ -159,9 +159,12 @@ def _registry(tmp_path, claims, readings=None):
                           "d995": "-0.04 [-0.06, -0.02]", "up": "0.02 [0.01, 0.03]",
                           "txt": "no interval", "v": "reproduced",
                           "pct": "12.0 [10.0, 14.0] %", "two": "1 [0, 2] and 3 [2, 4]",
-                          "flat": "0 (no interval)"})
+                          "flat": "0 (no interval)",
+                          "na": "not applicable: neither tracker confirms a track"})
     data = {"paper": "p", "title": "X", "measures": {"pd": "paired difference"},
             "readings": readings or [], "claims": claims}
+    if premises is not None:
+        data["premises"] = premises
     path = ch / "claims.yml"
     path.write_text(yaml.safe_dump(data, allow_unicode=True), encoding="utf-8")
     return path
@@ -405,3 +408,76 @@ def test_counts_add_up_and_readme_is_current():
     readme = (BOOK.parent / "README.md").read_text(encoding="utf-8")
     assert scorecard.readme_block() in readme, (
         "README's scorecard counts are stale: run `python book/_ext/scorecard.py --readme`")
+
+
+# --------------------------------------------------------------------------- premises
+
+PREMISE = {"pd": "a tracker confirms a track in some run"}
+
+
+def test_combining_not_applicable_cells():
+    a = scorecard.combine_all
+    assert a(["reproduced", "not applicable"]) == "not applicable"
+    assert a(["not reproduced", "not applicable"]) == "not reproduced"
+    assert a(["undecided", "not applicable"]) == "undecided"
+    r = scorecard.combine_readings
+    assert r(["not reproduced", "not applicable", "not reproduced"]) == "not reproduced"
+    assert r(["reproduced", "not applicable"]) == "reproduced"
+    assert r(["reproduced", "not reproduced", "not applicable"]) == "depends on reading"
+    assert r(["undecided", "not applicable"]) == "undecided"
+    assert r(["not applicable"] * 3) == "not testable"
+
+
+def test_not_applicable_cells_are_left_out(tmp_path):
+    # fails at two priors, premise absent at the third: not reproduced, one cell left out
+    ours = {"0.98": "nb::up", "0.99": "nb::na", "0.995": "nb::up"}
+    path = _registry(tmp_path, [_claim(readings=["pi"], ours=ours)], readings=PI,
+                     premises=PREMISE)
+    assert scorecard.problems(path) == []
+    ev = _eval(path)
+    assert ev["verdict"] == "not reproduced"
+    assert (ev["holds"], ev["cells"], ev["not_applicable_cells"]) == (0, 3, 1)
+    # the same cell with no interval (a tie) instead keeps the claim undecided
+    ours["0.99"] = "nb::flat"
+    path.write_text(yaml.safe_dump({**scorecard.load(path),
+                                    "claims": [_claim(readings=["pi"], ours=ours)]}),
+                    encoding="utf-8")
+    assert _eval(path)["verdict"] == "undecided"
+
+
+def test_no_applicable_cell_is_not_testable_unless_a_reading_is_open(tmp_path):
+    path = _registry(tmp_path, [_claim(ours="nb::na", not_applicable={"pi": "w"})],
+                     readings=PI, premises=PREMISE)
+    assert scorecard.problems(path) == []
+    assert _eval(path)["verdict"] == "not testable"
+    (tmp_path / "b").mkdir()
+    path = _registry(tmp_path / "b", [_claim(ours="nb::na", open_readings={"pi": "w"})],
+                     readings=PI, premises=PREMISE)
+    ev = _eval(path)
+    assert (ev["verdict"], ev["run_verdict"]) == ("undecided", "not testable")
+
+
+def test_an_all_rule_cell_with_a_part_not_applicable(tmp_path):
+    # one part holds, the other's premise is absent: the cell is not applicable, so a
+    # claim whose only cell it is cannot be computed as reproduced
+    rule = {"all": [{"type": "direction", "expect": "below", "ref": 0, "ours": "nb::d98"},
+                    {"type": "direction", "expect": "below", "ref": 0, "ours": "nb::na"}]}
+    path = _registry(tmp_path, [_claim(ours=None, rule=rule, not_applicable={"pi": "w"})],
+                     readings=PI, premises=PREMISE)
+    assert scorecard.problems(path) == []
+    assert _eval(path)["verdict"] == "not testable"
+
+
+@pytest.mark.parametrize("premises, message", [
+    (None, "declares no premise"),
+    ({"pd": ""}, "needs its text"),
+    ({"nope": "w", "pd": "w"}, "not a declared measure"),
+])
+def test_not_applicable_needs_a_declared_premise(tmp_path, premises, message):
+    path = _registry(tmp_path, [_claim(ours="nb::na", not_applicable={"pi": "w"})],
+                     readings=PI, premises=premises)
+    problems = scorecard.problems(path)
+    assert any(message in p for p in problems), problems
+    if premises is None:
+        with pytest.raises(ValueError, match="declares no premise"):
+            _eval(path)

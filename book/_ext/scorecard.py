@@ -65,6 +65,17 @@ Rules (numbers are in the units the glued value prints; a rule whose glued value
 * ``{all: [rule, ...]}``: every part (each with its own ``ours``) must hold; it fails when any
   part fails; otherwise undecided (a part within tolerance makes the whole within tolerance).
 
+A cell may be *not applicable*: its glued value starts with ``not applicable`` (say
+``"not applicable: neither tracker confirms a track in any run"``), computed in the notebook
+from the runs, and only for a claim whose measure has a declared premise (the registry's
+top-level ``premises: {measure: when a cell is not applicable}``; a glued "not applicable"
+in any other claim is an error).  Such a cell is one whose runs lack what the measure
+compares (no tracker tracks at all, say), so it can neither support nor refute the claim:
+within a cell a failing part fails it, then an undecided part leaves it undecided, then a
+not-applicable part makes it not applicable; across readings the not-applicable cells are
+left out and the verdict is computed from the others, and a claim with no applicable cell
+is *not testable* (*undecided* while a reading is still open).
+
 Across readings a verdict stands only if it is the same in every reading; a mix of holding
 and failing readings is *depends on reading* (the parameter is named); a mix of one outcome
 and undecided readings is *undecided*.  A typed ``verdict`` is allowed for qualitative claims
@@ -128,6 +139,8 @@ _NUM = r"[-+−]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+−]?\d+)?"
 _ESTIMATE = re.compile(rf"({_NUM})\s*\[\s*({_NUM})\s*,\s*({_NUM})\s*\]\s*(%)?")
 _INTERVAL = re.compile(rf"\[\s*{_NUM}\s*,\s*{_NUM}\s*\]")
 NO_INTERVAL = "(no interval)"   # trackcore.stats refuses an interval on (nearly) equal runs
+NOT_APPLICABLE = "not applicable"   # a glued value starting so: the cell's premise is absent
+NA = "not applicable"   # the verdict of a cell (never of a claim) whose premise is absent
 
 
 # --------------------------------------------------------------------------- reading
@@ -248,18 +261,25 @@ def band_ends(rule: dict) -> tuple[float, float]:
 
 
 def combine_all(verdicts: list[str]) -> str:
-    """Every part must hold."""
+    """Every part must hold: a failing part fails the whole, then an undecided part leaves
+    it undecided, then a part whose premise is absent makes it not applicable."""
     if "not reproduced" in verdicts:
         return "not reproduced"
     if "undecided" in verdicts:
         return "undecided"
+    if NA in verdicts:
+        return NA
     if "reproduced within tolerance" in verdicts:
         return "reproduced within tolerance"
     return "reproduced"
 
 
 def combine_readings(verdicts: list[str]) -> str:
-    """A verdict stands only if it is the same in every reading."""
+    """A verdict stands only if it is the same in every reading where the claim applies
+    (cells whose premise is absent are left out; none applicable: not testable)."""
+    verdicts = [v for v in verdicts if v != NA]
+    if not verdicts:
+        return "not testable"
     s = set(verdicts)
     if len(s) == 1:
         return verdicts[0]
@@ -376,7 +396,12 @@ def evaluate(data: dict, claim: dict, glue: _Glue) -> dict:
                 waiting = True
                 continue
             text = glue.text(ref)
-            if NO_INTERVAL in text and not _ESTIMATE.search(text):
+            if is_not_applicable(text):
+                if not premise(data, claim):
+                    raise ValueError(f"{ref!r} is glued {text!r}, but the measure "
+                                     f"{claim.get('measure')!r} declares no premise")
+                parts.append(NA)
+            elif NO_INTERVAL in text and not _ESTIMATE.search(text):
                 parts.append("undecided")   # the runs are (nearly) all equal: no interval
             else:
                 parts.append(decide(rule, parse_estimate(text)))
@@ -386,12 +411,24 @@ def evaluate(data: dict, claim: dict, glue: _Glue) -> dict:
     run = combine_readings(verdicts)
     open_ = dict(claim.get("open_readings") or {})
     verdict = run
-    if open_ and run in HOLDS + ("not reproduced",):
+    if open_ and run in HOLDS + ("not reproduced", "not testable"):
         verdict = "undecided"
     return {"verdict": verdict, "per_reading": per,
             "holds": sum(v in HOLDS for v in verdicts), "cells": len(verdicts),
+            "not_applicable_cells": sum(v == NA for v in verdicts),
             "pending_cells": pending, "open_readings": open_, "run_verdict": run,
             "readings": names, "computed": True}
+
+
+def is_not_applicable(text) -> bool:
+    """Whether a glued value says its cell's premise is absent."""
+    return str(text).strip().lower().startswith(NOT_APPLICABLE)
+
+
+def premise(data: dict, claim: dict) -> str | None:
+    """The declared premise of a claim's measure (``None`` if it declares none)."""
+    prem = data.get("premises") or {}
+    return prem.get(claim.get("measure")) if isinstance(prem, dict) else None
 
 
 def _is_pending(ref) -> bool:
@@ -500,6 +537,15 @@ def problems(path: Path) -> list[str]:
     if not isinstance(measures, dict):
         out.append("measures must be a mapping name -> description")
         measures = {}
+    premises = data.get("premises") or {}
+    if not isinstance(premises, dict):
+        out.append("premises must be a mapping measure -> when a cell is not applicable")
+        premises = {}
+    for m, why in premises.items():
+        if m not in measures:
+            out.append(f"premises names {m!r}, not a declared measure")
+        if not why or not isinstance(why, str):
+            out.append(f"premise of {m!r} needs its text")
     readings = data.get("readings") or []
     if not isinstance(readings, list):
         out.append("readings must be a list")
@@ -655,6 +701,12 @@ def problems(path: Path) -> list[str]:
                 out.append(f"{where}: {field}: {exc}")
                 continue
             if field == "ours" and c.get("rule"):
+                if is_not_applicable(text):
+                    if not premise(data, c):
+                        out.append(f"{where}: glued value {text!r} says not applicable, but "
+                                   f"the measure {c.get('measure')!r} declares no premise "
+                                   "(the registry's premises)")
+                    continue
                 found = _ESTIMATE.findall(text)
                 if not found and NO_INTERVAL in text:
                     continue
@@ -789,7 +841,10 @@ def _verdict_cell(e: dict) -> str:
     out = badge(ev["verdict"])
     if ev.get("cells", 0) > 1:
         names = ", ".join(ev["readings"])
-        out += f" holds in {ev['holds']} of {ev['cells']} readings ({names})"
+        na = ev.get("not_applicable_cells", 0)
+        out += f" holds in {ev['holds']} of {ev['cells'] - na} readings ({names})"
+        if na:
+            out += (f"; {na} not applicable ({_cell(premise(e['data'], c))})")
         if ev.get("pending_cells"):
             out += f", {ev['pending_cells']} still to run"
     elif ev.get("pending"):
