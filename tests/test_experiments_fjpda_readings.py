@@ -215,3 +215,32 @@ def test_estimate_falls_back_to_a_point_value():
     assert isinstance(d, NoInterval) and float(d) == 2.0, d
     ok = estimate(mean_ci, np.random.default_rng(0).normal(size=60))
     assert not isinstance(ok, NoInterval) and ok.lo < ok.hi, ok
+
+
+def test_confirms_nothing_reads_the_unscaled_gate_cell_of_the_stored_runs():
+    # the premise of the chapter's tracker comparisons, on the stored one-at-a-time runs:
+    # with G_th = 20 px neither tracker confirms a track in any run of any scene; at the
+    # default readings both do in every scene
+    from trackcore.experiments.fjpda_readings import NO_TRACK, confirms_nothing
+
+    oat = load("fjpda-oat").columns
+    scene = np.asarray(oat["scene"])
+    for i in range(len(get("fjpda-oat").config.scenes)):
+        sel = scene == i
+        assert confirms_nothing(oat, ["JPDA gate20", "FJPDA gate20"], select=sel)
+        assert not confirms_nothing(oat, ["JPDA default", "FJPDA default"], select=sel)
+    assert NO_TRACK.startswith("not applicable")
+
+
+@pytest.mark.parametrize("trackers, select, match", [
+    ("JPDA", None, "non-empty list"),
+    ([], None, "non-empty list"),
+    (["JPDA"], np.array([1, 0]), "boolean mask"),
+    (["JPDA"], np.array([True]), "boolean mask"),
+])
+def test_confirms_nothing_refuses_bad_input(trackers, select, match):
+    from trackcore.experiments.fjpda_readings import confirms_nothing
+
+    res = {"JPDA.coverage_num": np.zeros(2), "JPDA.false_tracks": np.zeros(2)}
+    with pytest.raises(ValueError, match=match):
+        confirms_nothing(res, trackers, select=select)

@@ -37,6 +37,8 @@ __all__ = [
     "estimate",
     "per_run",
     "compare",
+    "NO_TRACK",
+    "confirms_nothing",
 ]
 
 #: tracker label -> (variant, keywords of matched_config): the reading cells.
@@ -250,6 +252,43 @@ def per_run(res, tracker, measure):
     if measure == "events_same":
         return col("mean_events") - col("mean_events_kin")
     return col(measure)
+
+
+#: the glued text of a tracker comparison whose premise is absent: the scorecard reads a
+#: cell glued so as not applicable (the chapter's registry declares the premise)
+NO_TRACK = "not applicable: neither tracker confirms a track in any run"
+
+
+def confirms_nothing(res, trackers, select=None):
+    """Whether no tracker of ``trackers`` (labels of a readings store) confirms a single
+    track in any run: no frame of a vehicle covered by a confirmed or memory track
+    (``coverage_num``) and no confirmed false track (``false_tracks``), in every run
+    selected by the boolean mask ``select`` (all runs if ``None``).  Then a comparison
+    of those trackers has nothing to compare: its cell is not applicable
+    (:data:`NO_TRACK`).
+
+    Examples
+    --------
+    >>> res = {"JPDA.coverage_num": np.array([0, 0]), "JPDA.false_tracks": np.array([0, 0]),
+    ...        "FJPDA.coverage_num": np.array([0, 3]), "FJPDA.false_tracks": np.array([0, 0])}
+    >>> confirms_nothing(res, ["JPDA"]), confirms_nothing(res, ["JPDA", "FJPDA"])
+    (True, False)
+    >>> confirms_nothing(res, ["JPDA", "FJPDA"], select=np.array([True, False]))
+    True
+    """
+    if isinstance(trackers, str) or not len(trackers):
+        raise ValueError("trackers must be a non-empty list of tracker labels")
+    for t in trackers:
+        for f in ("coverage_num", "false_tracks"):
+            v = np.asarray(res[f"{t}.{f}"])
+            if select is not None:
+                sel = np.asarray(select)
+                if sel.dtype != bool or sel.shape != v.shape:
+                    raise ValueError("select must be a boolean mask, one entry per run")
+                v = v[sel]
+            if np.any(v != 0):
+                return False
+    return True
 
 
 def compare(x, y, names=("A", "B"), lower_is_better=True):
