@@ -24,12 +24,23 @@ A row holds the scene index (``scene``, always 0) and, per tracker label ``"<arm
 <value>"`` (arm ``JPDA``, ``FJPDA``, ``JPDA nodup`` or ``FJPDA nodup``), the columns of
 ``fjpda-oat`` (``V.<field>``, ``V.false_<source>``, ``V.motp``) and the follower's delay
 ``V.follower_delay`` (frames from its full entry until its own confirmed track, -1 for
-never: :class:`~trackcore.scenarios.feature_metrics.SceneMetrics`).
+never: :class:`~trackcore.scenarios.feature_metrics.SceneMetrics`).  Since version 2
+(session 15) a row also holds the follower's full-entry frame ``follower_entry``
+(:func:`follower_entry`, -1 if never fully visible) and, per tracker label **with** the rule
+(arm ``JPDA`` or ``FJPDA``), the frame of its first duplicate deletion
+``V.first_dup_deletion`` (:func:`first_deletion`, -1 for none); the trial
+(:func:`dup_trial`) is :func:`~trackcore.experiments.fjpda_oat.oat_trial`'s, with the same
+draws, keeping the scene and the trackers' frame reports for these two columns, so every
+other column is unchanged.
 
 :func:`dup_rule_effect` is the comparison notebook 05 makes for the default cell (the
 follower tracked within 10 frames, with minus without, its interval and exact McNemar
 test; the false tracks with minus without), moved here so that notebook 11 applies the
-same computation to every cell.
+same computation to every cell.  :func:`premise_seeds` marks the seeds on which the run
+with the rule deletes a duplicate before the follower's full entry (the premise of the
+measure ``dup-follow-premise``, session 15), :func:`premise_effect` applies
+:func:`dup_rule_effect` to them, and :func:`removed_share` is the share of false tracks the
+rule removes (the size reported beside ``fjpda-conclusion-duplicates``).
 """
 from __future__ import annotations
 
@@ -48,15 +59,15 @@ from .fjpda_oat import (
     FjpdaOatConfig,
     _oat_call,
     _oat_extract,
-    oat_trial,
 )
 from .fjpda_oat_vel import FJPDA_OAT_DUP_SEED, FJPDA_OAT_VEL_SEED, VARIED_DUP, VARIED_VEL
 from .fjpda_readings import CELLS, READING_VARIANTS
 from .fjpda_templates import NEW_CELLS, TEMPLATE_VARIANTS
 
 __all__ = ["DUP_READINGS_RUNS", "DUP_VALUES", "FJPDA_DUP_READINGS_SEED", "FOLLOW_WITHIN",
-           "GRID", "DupRuleEffect", "FjpdaDupReadingsConfig", "cell_label",
-           "dup_rule_effect", "follower_tracked"]
+           "GRID", "NOT_APPLICABLE", "DupRuleEffect", "FjpdaDupReadingsConfig", "cell_label",
+           "dup_rule_effect", "dup_trial", "first_deletion", "follower_entry",
+           "follower_tracked", "premise_effect", "premise_seeds", "removed_share"]
 
 _TEMPLATES = ("updated with guard", "updated without guard", "fixed first",
               "first fully visible")
@@ -92,6 +103,9 @@ DUP_READINGS_RUNS = 600
 #: the follower counts as tracked when its own confirmed track comes within this many
 #: frames of its full entry (the measure dup-follow)
 FOLLOW_WITHIN = 10
+#: the glued text of a cell whose premise is absent (measure dup-follow-premise)
+NOT_APPLICABLE = ("not applicable: no seed has a duplicate deleted before the follower's "
+                  "full entry")
 
 
 def cell_label(value):
@@ -158,11 +172,103 @@ class FjpdaDupReadingsConfig(FjpdaOatConfig):
         return out
 
 
+def follower_entry(scene):
+    """The follower's full entry: the first frame at which the second vehicle of the
+    scene's pair (S3's follower) is fully visible, as
+    :class:`~trackcore.scenarios.feature_metrics.SceneMetrics` counts ``follower_delay``
+    from; -1 if it is never fully visible or the scene is not S3.
+
+    Examples
+    --------
+    >>> from trackcore.scenarios.feature_scenes import render_scene
+    >>> scene = render_scene("S3", np.random.default_rng(0))
+    >>> k = follower_entry(scene)
+    >>> fol = scene.pair[1]
+    >>> bool(scene.visible[k, fol]), bool(scene.visible[:k, fol].any())
+    (True, False)
+    >>> follower_entry(render_scene("S2a", np.random.default_rng(0)))
+    -1
+    """
+    from ..scenarios.feature_scenes import check_scene
+
+    check_scene(scene)
+    if scene.name != "S3":
+        return -1
+    veh = np.nonzero(scene.is_vehicle)[0]
+    fol = int(np.nonzero(veh == scene.pair[1])[0][0])
+    full = np.nonzero(scene.visible[:, veh][:, fol])[0]
+    return int(full[0]) if len(full) else -1
+
+
+def first_deletion(reports, reason="duplicate"):
+    """The frame (``FrameReport.k``) of a tracker run's first track deletion for
+    ``reason`` (``"duplicate"``: :meth:`JPDATracker._duplicates
+    <trackcore.trackers.jpda_tracker.JPDATracker>`), -1 if none.
+
+    Examples
+    --------
+    >>> from trackcore.trackers.jpda_tracker import FrameReport
+    >>> reps = [FrameReport(k, (), 0, 0, 0, d, 0.0)
+    ...         for k, d in enumerate([(), ((3, "miss"),), ((5, "duplicate"),), ()])]
+    >>> first_deletion(reps), first_deletion(reps, "miss"), first_deletion(reps, "gate")
+    (2, 1, -1)
+    """
+    for r in reports:
+        if any(why == reason for _, why in r.deleted):
+            return int(r.k)
+    return -1
+
+
+def dup_trial(rng, config):
+    """One run: :func:`~trackcore.experiments.fjpda_oat.oat_trial` (the same draws and
+    metrics) returning also the follower's full-entry frame and, per tracker label with
+    the rule, its first duplicate deletion: ``(scene index, {label: SceneMetrics},
+    follower_entry, {label: first_deletion})``.
+
+    Examples
+    --------
+    >>> from trackcore.core.rng import generator_for_run
+    >>> config = FjpdaDupReadingsConfig(values=("default",))
+    >>> i, metrics, entry, first = dup_trial(generator_for_run(7, 1, 6), config)
+    >>> i, sorted(metrics), sorted(first)
+    (0, ['FJPDA default', 'FJPDA nodup default', 'JPDA default', 'JPDA nodup default'], ['FJPDA default', 'JPDA default'])
+    >>> entry > 0
+    True
+    """
+    from ..scenarios.feature_metrics import scene_metrics
+    from ..scenarios.feature_scenes import render_scene, segment_scene
+    from ..trackers.jpda_tracker import run_jpda_tracker
+    from .fjpda_oat import scene_of_run
+    from .fjpda_readings import READINGS_SCENES
+
+    i = scene_of_run(rng, len(config.scenes))
+    name, jitter, _ = READINGS_SCENES[config.scenes[i]]
+    scene = render_scene(name, rng, jitter=jitter)
+    variants = config.variants(i)
+    dets = {}
+    for method in ("vibe", "running_average"):
+        if any(m == method for m, _ in variants.values()):
+            dets[method] = segment_scene(scene, method, rng)[0]
+    out, first = {}, {}
+    for v, (method, arms) in variants.items():
+        for t, cfg in arms.items():
+            reports = run_jpda_tracker(dets[method], cfg)
+            out[f"{t} {v}"] = scene_metrics(scene, reports)
+            if cfg.duplicate_deletion:
+                first[f"{t} {v}"] = first_deletion(reports)
+    return i, out, follower_entry(scene), first
+
+
 def _extract(out, config):
-    """The columns of ``fjpda-oat`` and, per tracker label, ``follower_delay``."""
-    row = _oat_extract(out, config)
-    for label, m in out[1].items():
+    """The columns of ``fjpda-oat``, per tracker label ``follower_delay``, the follower's
+    full-entry frame and, per label with the rule, its first duplicate deletion."""
+    i, metrics, entry, first = out
+    row = _oat_extract((i, metrics), config)
+    for label, m in metrics.items():
         row[f"{label}.follower_delay"] = np.int64(m.follower_delay)
+    row["follower_entry"] = np.int64(entry)
+    for label, k in first.items():
+        row[f"{label}.first_dup_deletion"] = np.int64(k)
     return row
 
 
@@ -242,12 +348,90 @@ def dup_rule_effect(delay_with, delay_without, false_with, false_without,
                 ("with", "without")))
 
 
+
+def premise_seeds(first_dup, entry):
+    """Per run, whether the run with the rule deleted a duplicate track (at frame
+    ``first_dup``, -1 for none) strictly before the follower's full entry (``entry``, -1
+    for never): the premise of the measure ``dup-follow-premise``.  Both arms are the same
+    run until the first deletion, so the premise holds in the run without the rule too.
+
+    Examples
+    --------
+    >>> premise_seeds([-1, 3, 9, 10, 4], [8, 8, 8, 10, -1]).tolist()
+    [False, True, False, False, False]
+    """
+    d, e = np.asarray(first_dup), np.asarray(entry)
+    if d.shape != e.shape:
+        raise ValueError(f"paired runs needed, got {d.shape} and {e.shape}")
+    return (d >= 0) & (e >= 0) & (d < e)
+
+
+def premise_effect(delay_with, delay_without, false_with, false_without, premise,
+                   within=FOLLOW_WITHIN):
+    """:func:`dup_rule_effect` on the premise seeds only (``premise``, a boolean mask
+    from :func:`premise_seeds`), and their count: ``(DupRuleEffect or None, n)``; None
+    when no seed has the premise (the cell is not applicable, :data:`NOT_APPLICABLE`).
+
+    Examples
+    --------
+    >>> prem = np.array([True, False] * 30)
+    >>> e, n = premise_effect([3, -1] * 30, [-1, -1] * 30, [1] * 60, [2] * 60, prem)
+    >>> n, e.only_with, e.only_without, format(e.follow_with, ".2f")
+    (30, 30, 0, '1.00 [0.89, 1.00]')
+    >>> premise_effect([3] * 4, [3] * 4, [0] * 4, [0] * 4, [False] * 4)
+    (None, 0)
+    """
+    m = np.asarray(premise, bool)
+    cols = [np.asarray(x) for x in (delay_with, delay_without, false_with, false_without)]
+    if any(c.shape != m.shape for c in cols):
+        raise ValueError(f"premise has shape {m.shape}; the runs have "
+                         f"{[c.shape for c in cols]}")
+    n = int(m.sum())
+    if n == 0:
+        return None, 0
+    return dup_rule_effect(*(c[m] for c in cols), within=within), n
+
+
+def removed_share(false_with, false_without):
+    """The share of the false tracks that the rule removes, ``(without - with) /
+    without`` of the mean false tracks per sequence on paired runs, with a 95 % interval
+    (``1 - ratio_ci(with, without)``, :func:`~trackcore.stats.ratio_ci`, paired: a
+    studentized paired bootstrap of the ratio of means); a
+    :class:`~trackcore.experiments.fjpda_readings.NoInterval` where the runs give no
+    interval, None where no run has a false track without the rule (no share).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(5)
+    >>> without = rng.poisson(2.0, 200)
+    >>> with_ = np.maximum(without - rng.poisson(0.5, 200), 0)
+    >>> format(removed_share(with_, without), ".2f")
+    '0.19 [0.14, 0.23]'
+    >>> removed_share([0] * 40, [0] * 40) is None
+    True
+    >>> format(removed_share([1] * 40, [2] * 40), ".2f")
+    '0.50 (no interval)'
+    """
+    from ..stats import Estimate, ratio_ci
+    from .fjpda_readings import NoInterval
+
+    w, wo = np.asarray(false_with, float), np.asarray(false_without, float)
+    if w.shape != wo.shape:
+        raise ValueError(f"paired runs needed, got {w.shape} and {wo.shape}")
+    if not wo.mean() > 0:
+        return None
+    try:
+        r = ratio_ci(w, wo, paired=True)
+    except ValueError:
+        return NoInterval(1.0 - w.mean() / wo.mean())
+    return Estimate(1.0 - r.value, 1.0 - r.hi, 1.0 - r.lo, r.level, r.n, r.method)
+
 register(Experiment(
     name="fjpda-dup-readings",
     description=("Feature-JPDA chapter, the duplicate rule under every reading: S3 under "
                  "5 px, JPDA and FJPDA with and without duplicate deletion in the "
                  "correlation x template grid (FJPDA) and each value varied one at a time "
                  "from the default cell, on the same detections"),
-    trial=oat_trial, call=_oat_call, extract=_extract, config=FjpdaDupReadingsConfig(),
-    seed=FJPDA_DUP_READINGS_SEED, runs=DUP_READINGS_RUNS, version="1",
+    trial=dup_trial, call=_oat_call, extract=_extract, config=FjpdaDupReadingsConfig(),
+    seed=FJPDA_DUP_READINGS_SEED, runs=DUP_READINGS_RUNS, version="2",
     notebook="book/004-feature-jpda/11-duplicate-rule-readings.ipynb"))
