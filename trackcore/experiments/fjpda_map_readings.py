@@ -53,7 +53,8 @@ from .fjpda_templates import (
 from .registry import _Config
 
 __all__ = ["MAP_NEW_CELLS", "MAP_READINGS_FIELDS", "MAP_READINGS_MEMORY", "MAP_VARIED",
-           "FjpdaMapReadingsConfig", "map_readings_trial"]
+           "FjpdaMapReadingsConfig", "map_cells", "map_readings_trial", "map_results",
+           "side"]
 
 #: the map's pending cells: glue suffix -> FJPDA keywords of matched_config
 MAP_NEW_CELLS = {k: dict(TEMPLATE_VARIANTS[label][1]) for k, label in NEW_CELLS.items()}
@@ -187,6 +188,110 @@ def _extract(out, config):
             for f in MAP_READINGS_FIELDS:
                 row[f"c{c:g}.{label}.{f}"] = np.int64(getattr(m, f))
     return row
+
+
+def map_cells(memory=MAP_READINGS_MEMORY, values=tuple(MAP_VARIED)):
+    """The store's comparisons, in the order of the claims' grid: ``{key: (FJPDA label,
+    JPDA label, claims' cell label)}``, the pending cells per memory (longest first; key
+    ``"<cell>_m<memory>"``), the default cell (key ``"default"``, the map's own cell, run
+    again, if memory 2 is run), then the readings ``values`` of :data:`MAP_VARIED` (key:
+    the value).
+
+    Examples
+    --------
+    >>> cells = map_cells()
+    >>> cells["cn_m2"]
+    ('cn m2', 'JPDA m2', 'canvas, updated without guard, 2')
+    >>> cells["tsi"][2]
+    'canvas, updated with guard, 2; tsi: not validated by the variant'
+    >>> list(cells)[7:10]
+    ['sv_m1', 'default', 'seg_ra']
+    """
+    from .fjpda_dup_readings import GRID
+
+    out = {}
+    for m in sorted(memory, reverse=True):
+        for cell in MAP_NEW_CELLS:
+            corr, tpl, _ = GRID[cell]
+            out[f"{cell}_m{m:g}"] = (f"{cell} m{m:g}", f"JPDA m{m:g}",
+                                     f"{corr}, {tpl}, {m:g}")
+    if 2.0 in memory:
+        out["default"] = ("cu m2", "JPDA m2", "canvas, updated with guard, 2")
+    for v in values:
+        reading, value, _, _ = MAP_VARIED[v]
+        out[v] = (f"FJPDA {v}", f"JPDA {v}", f"canvas, updated with guard, 2; {reading}: {value}")
+    return out
+
+
+def map_results(res, offsets=MAP_OFFSETS, memory=MAP_READINGS_MEMORY,
+                values=tuple(MAP_VARIED)):
+    """The TMR, FJPDA - JPDA, paired over the runs of a store of this design (a
+    ``Results`` or a dict of columns), per offset and comparison of :func:`map_cells`
+    (of ``memory`` and ``values``):
+    ``{(offset, key): (glued text, comparison)}`` and table rows (the claims' cell label
+    and the text at each offset).  The text is the difference with its 95 % interval
+    (``format(diff, ".2g")``), or
+    :data:`~trackcore.experiments.fjpda_readings.NO_TRACK` where neither tracker confirms
+    a track in any run (:func:`~trackcore.experiments.fjpda_readings.confirms_nothing`:
+    the measure's premise is absent).
+
+    Examples
+    --------
+    Two runs-worth of columns at one offset, the readings left out; JPDA keeps more
+    frames than every FJPDA cell:
+
+    >>> rng = np.random.default_rng(4)
+    >>> cols = {}
+    >>> for label in ("JPDA m2", "cn m2", "cv m2", "sn m2", "sv m2", "cu m2"):
+    ...     cols[f"c6.{label}.tmr_den"] = np.full(40, 100)
+    ...     cols[f"c6.{label}.tmr_num"] = rng.integers(60, 70, 40) + 30 * (label[0] == "J")
+    ...     cols[f"c6.{label}.coverage_num"] = np.full(40, 90)
+    ...     cols[f"c6.{label}.false_tracks"] = np.zeros(40, int)
+    >>> cells, rows = map_results(cols, offsets=(6.0,), memory=(2.0,), values=())
+    >>> cells[6.0, "cn_m2"][1].verdict, rows[0][0]
+    ('JPDA better', 'canvas, updated without guard, 2')
+    >>> cols = {k: 0 * v for k, v in cols.items() if "tmr_den" not in k} | {
+    ...     k: v for k, v in cols.items() if "tmr_den" in k}
+    >>> map_results(cols, offsets=(6.0,), memory=(2.0,), values=())[1][0][1]
+    'not applicable: neither tracker confirms a track in any run'
+    """
+    from .fjpda_readings import NO_TRACK, compare, confirms_nothing, per_run
+
+    cells = {}
+    table = map_cells(memory, values)
+    for c in offsets:
+        for key, (fj, jp, _) in table.items():
+            a, b = f"c{c:g}.{fj}", f"c{c:g}.{jp}"
+            d = compare(per_run(res, a, "tmr"), per_run(res, b, "tmr"), ("FJPDA", "JPDA"),
+                        False)
+            text = NO_TRACK if confirms_nothing(res, [a, b]) else format(d.diff, ".2g")
+            cells[c, key] = (text, d)
+    rows = [(label, *(cells[c, key][0] for c in offsets))
+            for key, (_, _, label) in table.items()]
+    return cells, rows
+
+
+def side(text):
+    """Where a glued difference lies against 0, read as the scorecard reads it: ``"below
+    0"`` (its interval wholly below 0: the occlusion loss appears), ``"above 0"``, ``"a
+    tie"``, ``"no interval"`` or ``"not applicable"``.
+
+    Examples
+    --------
+    >>> side("-0.26 [-0.29, -0.23]"), side("0.0077 [-0.0099, 0.18]"), side("-0.02 (no interval)")
+    ('below 0', 'a tie', 'no interval')
+    >>> side("not applicable: neither tracker confirms a track in any run")
+    'not applicable'
+    """
+    import re
+
+    if text.startswith("not applicable"):
+        return "not applicable"
+    m = re.fullmatch(r"\S+ \[(\S+), (\S+)\]", text)
+    if m is None:
+        return "no interval"
+    lo, hi = float(m.group(1)), float(m.group(2))
+    return "above 0" if lo > 0 else "below 0" if hi < 0 else "a tie"
 
 
 register(Experiment(
