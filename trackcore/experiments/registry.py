@@ -426,3 +426,4 @@ from . import tom_tuning  # noqa: E402,F401  (001-05: the grids, fresh seeds, T9
 from . import fjpda_crossing_oat  # noqa: E402,F401  (004-09: the Fig 7 crossing under every reading)
 from . import fjpda_accuracy  # noqa: E402,F401  (004-10: the position error on the same frames)
 from . import fjpda_dup_readings  # noqa: E402,F401  (004-11: the duplicate rule under every reading)
+from . import fjpda_map_readings  # noqa: E402,F401  (004-12: the occlusion map's pending cells and readings)
