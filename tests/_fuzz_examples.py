@@ -2044,6 +2044,12 @@ def steady_state_gate():
 
 
 @example()
+def initial_gate():
+    from trackcore.trackers import JPDATrackerConfig as C
+    return call(C(variant="FJPDA"))
+
+
+@example()
 def failure_grid():
     r = np.random.default_rng(6)
     mx = r.random((40, 3)) * 3e5

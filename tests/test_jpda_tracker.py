@@ -9,7 +9,7 @@ from trackcore.scenarios.feature_metrics import (SceneMetrics, match_tracks, pai
 from trackcore.scenarios.feature_scenes import N_WARMUP, render_scene, scene_layout, segment_scene
 from trackcore.trackers.jpda_tracker import (FrameReport, JPDATracker, JPDATrackerConfig,
                                              TrackSnapshot, matched_config, run_jpda_tracker,
-                                             steady_state_gate)
+                                             steady_state_gate, initial_gate)
 
 VAN = vehicle_sprite("van")[1]
 SEDAN = vehicle_sprite("sedan")[1]
@@ -430,3 +430,20 @@ def test_paired_comparison():
         paired_comparison(x, y[:-1])
     with pytest.raises(ValueError, match="x"):
         paired_comparison(np.full(5, np.nan), np.zeros(5))
+
+
+@pytest.mark.parametrize("jitter, model", [(0.0, "cv"), (3.0, "cv"), (5.0, "rw"), (5.0, "pv")])
+def test_initial_gate_is_the_gate_a_new_track_reports(jitter, model):
+    # two frames start a track by the two-step initialisation; on the third the tracker
+    # reports the gate of that first prediction (R and Q isotropic: the half-width along
+    # x is the semi-major axis)
+    cfg = matched_config("JPDA", jitter, model=model, gate_max=1e4)
+    trk = JPDATracker(cfg)
+    trk.step(dets([[100.0, 100.0]]))
+    trk.step(dets([[102.0, 101.0]]))
+    rep = trk.step(dets([[104.0, 102.0]]))  # where it predicts: validated, a hit
+    (t,) = rep.tracks
+    assert t.gate_x == pytest.approx(initial_gate(cfg), rel=1e-9)
+    # at 3 px of jitter or more the CV track's first gate exceeds an unscaled 20 px
+    assert (initial_gate(matched_config("JPDA", jitter, model=model)) > 20.0) == \
+        (jitter >= 3.0 and model != "rw" or jitter >= 5.0)

@@ -58,6 +58,7 @@ __all__ = [
     "run_jpda_tracker",
     "matched_config",
     "steady_state_gate",
+    "initial_gate",
     "VARIANTS",
 ]
 
@@ -306,8 +307,33 @@ def steady_state_gate(config):
         if np.max(np.abs(P_new - P)) < 1e-12:
             break
         P = P_new
-    S = (H @ (F @ P @ F.T + Q) @ H.T + R)[:2, :2]  # the position block
-    return float(math.sqrt(config.gamma * np.linalg.eigvalsh(S)[-1]))
+    return _predicted_gate(trk, P)
+
+
+def initial_gate(config):
+    """Semi-major axis (px) of the gate sqrt(gamma lambda_max(S)) of a track started by the
+    two-step initialisation, at its first prediction (the frame after it was started,
+    before any update): beside :func:`steady_state_gate`, it says whether the gate-size
+    threshold G_th lets a new track live, since a track whose gate exceeds G_th is
+    deleted, tentative tracks included.
+
+    Examples
+    --------
+    >>> round(initial_gate(JPDATrackerConfig()), 2)
+    7.45
+    >>> round(initial_gate(matched_config(jitter=5.0)), 1)  # above an unscaled G_th of 20 px
+    37.9
+    """
+    if not isinstance(config, JPDATrackerConfig):
+        raise TypeError("config must be a JPDATrackerConfig")
+    trk = JPDATracker(config)
+    return _predicted_gate(trk, trk._initial_covariance())
+
+
+def _predicted_gate(trk, P):
+    """The gate semi-axis at the prediction from covariance P (the position block of S)."""
+    S = (trk.H @ (trk.F @ P @ trk.F.T + trk.Q) @ trk.H.T + trk.R)[:2, :2]
+    return float(math.sqrt(trk.cfg.gamma * np.linalg.eigvalsh(S)[-1]))
 
 
 class TrackSnapshot(NamedTuple):
@@ -415,14 +441,19 @@ class JPDATracker:
         self._rho = _mask_ncc_sliding if self.cfg.correlation == "sliding" else ncc
 
     # ------------------------------------------------------------ helpers
-    def _new_track(self, zc, zp, mask):
+    def _initial_covariance(self):
+        """P of a track started by the two-step initialisation (T = 1 frame)."""
         R = self.R2
         if self.cfg.model != "rw":
+            return np.block([[R, R], [R, 2 * R]])
+        return R.copy()
+
+    def _new_track(self, zc, zp, mask):
+        if self.cfg.model != "rw":
             x = np.array([zc[0], zc[1], zc[0] - zp[0], zc[1] - zp[1]])
-            P = np.block([[R, R], [R, 2 * R]])
         else:
             x = np.array(zc, float)
-            P = R.copy()
+        P = self._initial_covariance()
         t = _Track(self.next_id, x, P, mask, self.k, template0=mask,
                    whole=self.cfg.template_from == "first" or not _touches_edge(mask))
         self.next_id += 1
