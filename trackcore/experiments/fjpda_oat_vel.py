@@ -71,8 +71,7 @@ OAT_VEL_RUNS = 200 * len(OAT_SCENES)
 CONFIRM_PV_SCENES = ("glare", "side-by-side")
 #: runs of fjpda-confirm-pv: 2000 per scene
 CONFIRM_PV_RUNS = 2000 * len(CONFIRM_PV_SCENES)
-#: the master seed of fjpda-confirm-pv (fresh: + 30 is fjpda-dup-readings'; no other
-#: store, notebook or review uses it)
+#: the master seed of fjpda-confirm-pv, fresh: no other store, notebook or review uses it
 FJPDA_CONFIRM_PV_SEED = FJPDA_OAT_SEED + 40
 
 
