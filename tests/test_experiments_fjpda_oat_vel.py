@@ -139,3 +139,71 @@ def test_verification_catches_a_corrupted_stored_dup_row(stored_dup, tmp_path):
     bad = corrupted_store(DUP, tmp_path, column, RUN)
     with pytest.raises(VerificationError, match=f"run {RUN}, column '{column}'"):
         verify_sample(bad, indices=[RUN])
+
+
+CPV = "fjpda-confirm-pv"
+
+
+def test_confirm_pv_config_and_registry():
+    from trackcore.experiments.fjpda_oat_vel import (
+        CONFIRM_PV_RUNS,
+        CONFIRM_PV_SCENES,
+        FJPDA_CONFIRM_PV_SEED,
+        FjpdaConfirmPvConfig,
+    )
+
+    c = FjpdaConfirmPvConfig()
+    assert c.values == ("pv",) and c.scenes == CONFIRM_PV_SCENES == ("glare", "side-by-side")
+    vel = FjpdaOatVelConfig()
+    for i, key in enumerate(c.scenes):
+        assert c.variants(i)["pv"] == vel.variants(OAT_SCENES.index(key))["pv"], key
+    with pytest.raises(ValueError, match="unknown value 'default'"):
+        FjpdaConfirmPvConfig(values=("default", "pv"))
+    with pytest.raises(ValueError, match="unknown scene"):
+        FjpdaConfirmPvConfig(scenes=("glare", "nowhere"))
+    e = get(CPV)
+    assert (e.seed, e.runs) == (FJPDA_CONFIRM_PV_SEED, CONFIRM_PV_RUNS) == (20160965, 4000)
+    others = {get(n).seed for n in names() if n != CPV}
+    calibration = set(range(FJPDA_CALIBRATION_SEED, FJPDA_CALIBRATION_SEED + 6))
+    assert e.seed not in others | calibration, "a fresh master seed"
+    assert not 1500000000 <= e.seed <= 1510000010, "not the review's seeds"
+    assert e.trial is get("fjpda-oat-vel").trial and e.extract is get("fjpda-oat-vel").extract
+
+
+def test_confirm_pv_run_is_the_vel_trial_on_its_scene():
+    """Run 3 renders side by side (3 mod 2); its pv pair equals the vel store's config
+    run on the same generator restricted to that scene."""
+    from trackcore.experiments.fjpda_oat_vel import FjpdaConfirmPvConfig
+
+    rng = lambda: generator_for_run(11, 3, 4)
+    i, out = oat_trial(rng(), FjpdaConfirmPvConfig())
+    j, ref = oat_trial(rng(), FjpdaOatVelConfig(scenes=("glare", "side-by-side"),
+                                                values=("default", "pv")))
+    assert i == j == 1 and sorted(out) == ["FJPDA pv", "JPDA pv"], sorted(out)
+    for t in ("JPDA", "FJPDA"):
+        assert out[f"{t} pv"]._replace(assoc_ms=0.0) == ref[f"{t} pv"]._replace(
+            assoc_ms=0.0), t
+
+
+@pytest.fixture(scope="module")
+def stored_cpv():
+    if status(CPV) != "current":
+        pytest.skip("store not current")
+    return load(CPV)
+
+
+def test_stored_cpv_row_equals_the_direct_run(stored_cpv):
+    assert np.array_equal(stored_cpv["scene"], np.arange(stored_cpv.runs) % 2), "scenes"
+    e = get(CPV)
+    row = e.row(generator_for_run(e.seed, RUN, e.runs), e.config)
+    assert row.keys() == stored_cpv.row(RUN).keys(), sorted(row)[:5]
+    for k, x in row.items():
+        if not k.endswith("assoc_ms"):
+            assert stored_cpv.row(RUN)[k] == x, (k, stored_cpv.row(RUN)[k], x)
+
+
+def test_verification_catches_a_corrupted_stored_cpv_row(stored_cpv, tmp_path):
+    column = "FJPDA pv.false_tracks"
+    bad = corrupted_store(CPV, tmp_path, column, RUN)
+    with pytest.raises(VerificationError, match=f"run {RUN}, column '{column}'"):
+        verify_sample(bad, indices=[RUN])

@@ -173,12 +173,13 @@ class FjpdaOatConfig(_Config):
 
     _KINDS = {"scenes": tuple, "values": tuple, "lam": "floats"}  # noqa: RUF012
     _VARIED = VARIED  # the value keys (a subclass may name others)
+    _FIRST = "default"  # the value every config starts with (None: any)
 
     def __post_init__(self):
         check_names(self.scenes, "scenes", tuple(READINGS_SCENES), "scene")
         check_names(self.values, "values", tuple(self._VARIED), "value")
-        if self.values[0] != "default":
-            raise ValueError(f"values must start with 'default', got {self.values!r}")
+        if self._FIRST is not None and self.values[0] != self._FIRST:
+            raise ValueError(f"values must start with {self._FIRST!r}, got {self.values!r}")
         lam = self.lam or tuple(MATCHED_LAM.get(s) for s in self.scenes)
         if len(lam) != len(self.scenes) or any(
                 x is None or not np.isfinite(x) or x <= 0 for x in lam):

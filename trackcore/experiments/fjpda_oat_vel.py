@@ -18,6 +18,16 @@ session-13 review: JPDA and FJPDA at the default cell with ``d_dup`` 2 px (not s
 with the jitter, as the default 5 px is not) and, on the same render and detections, at
 the default cell itself, 200 fresh seeds per scene, master seed
 :data:`FJPDA_OAT_DUP_SEED`.
+
+``fjpda-confirm-pv``: the confirmation of the pv cell's false tracks beside the glare and
+side by side, declared in session 15 after a hostile review's fresh seeds had not
+replicated the 200-seed glare value: the trial of ``fjpda-oat-vel``
+(:func:`~trackcore.experiments.fjpda_oat.oat_trial`, run ``i`` renders
+``CONFIRM_PV_SCENES[i % 2]``, segmented by ViBe) with JPDA and FJPDA at the pv cell only
+(``VARIED_VEL["pv"]``), :data:`CONFIRM_PV_RUNS` runs on the fresh master seed
+:data:`FJPDA_CONFIRM_PV_SEED`.  The size: the review's 1000-seed pilot put the side-by-side
+difference near 0.025 per sequence with a 95 % half-width of about 0.023; intervals narrow
+as 1/sqrt(n), so 2000 seeds per scene give about 0.016.
 """
 from __future__ import annotations
 
@@ -35,8 +45,9 @@ from .fjpda_oat import (
     oat_trial,
 )
 
-__all__ = ["FJPDA_OAT_DUP_SEED", "FJPDA_OAT_VEL_SEED", "OAT_VEL_RUNS", "VARIED_DUP",
-           "VARIED_VEL", "FjpdaOatDupConfig", "FjpdaOatVelConfig"]
+__all__ = ["CONFIRM_PV_RUNS", "CONFIRM_PV_SCENES", "FJPDA_CONFIRM_PV_SEED",
+           "FJPDA_OAT_DUP_SEED", "FJPDA_OAT_VEL_SEED", "OAT_VEL_RUNS", "VARIED_DUP",
+           "VARIED_VEL", "FjpdaConfirmPvConfig", "FjpdaOatDupConfig", "FjpdaOatVelConfig"]
 
 #: value key -> (reading, value as claims.yml names it, segmentation, tracker overrides)
 VARIED_VEL = {
@@ -56,6 +67,12 @@ VARIED_DUP = {
 FJPDA_OAT_DUP_SEED = FJPDA_OAT_SEED + 20
 #: runs of fjpda-oat-vel (and fjpda-oat-dup): 200 per scene
 OAT_VEL_RUNS = 200 * len(OAT_SCENES)
+#: the scenes of fjpda-confirm-pv: run i renders CONFIRM_PV_SCENES[i % 2]
+CONFIRM_PV_SCENES = ("glare", "side-by-side")
+#: runs of fjpda-confirm-pv: 2000 per scene
+CONFIRM_PV_RUNS = 2000 * len(CONFIRM_PV_SCENES)
+#: the master seed of fjpda-confirm-pv, fresh: no other store, notebook or review uses it
+FJPDA_CONFIRM_PV_SEED = FJPDA_OAT_SEED + 40
 
 
 @dataclass(frozen=True)
@@ -97,6 +114,31 @@ class FjpdaOatDupConfig(FjpdaOatConfig):
     _VARIED = VARIED_DUP
 
 
+@dataclass(frozen=True)
+class FjpdaConfirmPvConfig(FjpdaOatConfig):
+    """:class:`~trackcore.experiments.fjpda_oat.FjpdaOatConfig` over the pv cell only
+    (``VARIED_VEL["pv"]``), in the scenes of :data:`CONFIRM_PV_SCENES`.
+
+    Examples
+    --------
+    >>> config = FjpdaConfirmPvConfig()
+    >>> config.scenes, config.values
+    (('glare', 'side-by-side'), ('pv',))
+    >>> method, pair = config.variants(1)["pv"]
+    >>> method, pair["FJPDA"].model, pair["JPDA"].model
+    ('vibe', 'pv', 'pv')
+    >>> FjpdaConfirmPvConfig(values=("default",))
+    Traceback (most recent call last):
+        ...
+    ValueError: unknown value 'default' in values; expected some of ('pv',)
+    """
+
+    scenes: tuple = CONFIRM_PV_SCENES
+    values: tuple = ("pv",)
+    _VARIED = {"pv": VARIED_VEL["pv"]}  # noqa: RUF012
+    _FIRST = None
+
+
 def _register():
     register(Experiment(
         name="fjpda-oat-vel",
@@ -117,6 +159,16 @@ def _register():
         trial=oat_trial, call=_oat_call, extract=_oat_extract, config=FjpdaOatDupConfig(),
         seed=FJPDA_OAT_DUP_SEED, runs=OAT_VEL_RUNS, version="1",
         notebook="book/004-feature-jpda/08-readings-one-at-a-time.ipynb"))
+
+    register(Experiment(
+        name="fjpda-confirm-pv",
+        description=(f"Feature-JPDA chapter, confirmation of the false tracks of the "
+                     f"measurement 'position and velocity' beside the glare and side by "
+                     f"side at {CONFIRM_PV_RUNS // 2} fresh seeds per scene: JPDA and "
+                     f"FJPDA at the default cell with model pv"),
+        trial=oat_trial, call=_oat_call, extract=_oat_extract,
+        config=FjpdaConfirmPvConfig(), seed=FJPDA_CONFIRM_PV_SEED, runs=CONFIRM_PV_RUNS,
+        version="1", notebook="book/004-feature-jpda/08-readings-one-at-a-time.ipynb"))
 
 
 _register()
