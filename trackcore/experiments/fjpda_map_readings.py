@@ -32,6 +32,15 @@ background, the noise and the camera jitter that make the clutter are the scene'
 A row holds per offset the merged frames (``c<c>.merged``) and per tracker the TMR
 counts, the covered frames and the false tracks (``c<c>.<label>.<field>``, the fields of
 :data:`MAP_READINGS_FIELDS`).
+
+``fjpda-occlusion-map-confirm`` (declared in session 15 after a review on fresh seeds):
+the same trial (:func:`map_readings_trial`, the occlusion crossing at every offset of
+:data:`~trackcore.experiments.fjpda_templates.MAP_OFFSETS`, ViBe, 3 px jitter) on a
+fresh master seed (:data:`FJPDA_MAP_CONFIRM_SEED`), :data:`MAP_CONFIRM_RUNS` runs, with
+JPDA and the map's four tying cells (:data:`MAP_CONFIRM_CELLS`: the sliding correlation
+with the template fixed first, ``sf``, and fixed at the first fully visible silhouette,
+``sv``) at memory 1 and 2 (:class:`FjpdaMapConfirmConfig`); the rows have the fields
+above.
 """
 from __future__ import annotations
 
@@ -52,7 +61,8 @@ from .fjpda_templates import (
 )
 from .registry import _Config
 
-__all__ = ["MAP_NEW_CELLS", "MAP_READINGS_FIELDS", "MAP_READINGS_MEMORY", "MAP_VARIED",
+__all__ = ["FJPDA_MAP_CONFIRM_SEED", "MAP_CONFIRM_CELLS", "MAP_CONFIRM_RUNS",
+           "FjpdaMapConfirmConfig", "MAP_NEW_CELLS", "MAP_READINGS_FIELDS", "MAP_READINGS_MEMORY", "MAP_VARIED",
            "FjpdaMapReadingsConfig", "map_cells", "map_readings_trial", "map_results",
            "side"]
 
@@ -135,6 +145,61 @@ class FjpdaMapReadingsConfig(_Config):
             kw = {"lam": float(self.lam)} if v == "lam" else kw
             for t in ("JPDA", "FJPDA"):
                 out[f"{t} {v}"] = (method, matched_config(t, j, **kw))
+        return out
+
+
+#: the confirmation's FJPDA cells: glue suffix -> matched_config keywords (the sliding
+#: correlation, the template fixed first and fixed at the first fully visible silhouette)
+MAP_CONFIRM_CELLS = {"sf": {"correlation": "sliding", "template_update": False},
+                     "sv": {"correlation": "sliding", **MAP_NEW_CELLS["sv"]}}
+#: master seed of fjpda-occlusion-map-confirm (fresh: 20160325 + 1320; no other store uses
+#: it, and it lies outside the reviews' 1500000000-1510000010)
+FJPDA_MAP_CONFIRM_SEED = 20160325 + 1320
+#: runs of fjpda-occlusion-map-confirm (declared from the review's 560-run pilot)
+MAP_CONFIRM_RUNS = 1000
+
+
+@dataclass(frozen=True)
+class FjpdaMapConfirmConfig(_Config):
+    """The confirmation of the map's tying cells: crossing ``offsets`` (px, each in [0,
+    30]), ``memory`` lengths (frames, whole numbers in [1, 100]) and camera ``jitter``
+    (px), checked as the map checks them.
+
+    Examples
+    --------
+    >>> v = FjpdaMapConfirmConfig().variants()
+    >>> list(v)
+    ['JPDA m1', 'sf m1', 'sv m1', 'JPDA m2', 'sf m2', 'sv m2']
+    >>> v["sv m2"][1].template_from, v["sf m2"][1].template_update, v["sf m1"][1].correlation
+    ('fully_visible', False, 'sliding')
+    >>> FjpdaMapConfirmConfig(memory=(0.5,))
+    Traceback (most recent call last):
+        ...
+    ValueError: memory must hold whole numbers in [1, 100], got 0.5
+    """
+
+    offsets: tuple = MAP_OFFSETS
+    memory: tuple = MAP_READINGS_MEMORY
+    jitter: float = 3.0
+
+    _KINDS = {"offsets": "floats", "memory": "floats",  # noqa: RUF012
+              "jitter": float}
+
+    def __post_init__(self):
+        FjpdaOcclusionMapConfig(self.offsets, self.memory, self.jitter)
+
+    def variants(self) -> dict:
+        """``{label: ("vibe", JPDATrackerConfig)}``: per memory JPDA and
+        :data:`MAP_CONFIRM_CELLS` (``"<cell> m<memory>"``)."""
+        from ..trackers.jpda_tracker import matched_config
+
+        j = float(self.jitter)
+        out = {}
+        for m in self.memory:
+            out[f"JPDA m{m:g}"] = ("vibe", matched_config("JPDA", j, memory_frames=int(m)))
+            for cell, kw in MAP_CONFIRM_CELLS.items():
+                out[f"{cell} m{m:g}"] = ("vibe", matched_config(
+                    "FJPDA", j, memory_frames=int(m), **kw))
         return out
 
 
@@ -303,3 +368,14 @@ register(Experiment(
     trial=map_readings_trial, call=_call, extract=_extract,
     config=FjpdaMapReadingsConfig(), seed=FJPDA_MAP_SEED, runs=40, version="1",
     notebook="book/004-feature-jpda/12-occlusion-map-readings.ipynb"))
+
+
+register(Experiment(
+    name="fjpda-occlusion-map-confirm",
+    description=("Feature-JPDA chapter, confirmation of the occlusion map's tying cells "
+                 "(sliding correlation, template fixed first and first fully visible; "
+                 "memory 1 and 2) on fresh seeds: TMR, coverage and false tracks of JPDA "
+                 "and FJPDA"),
+    trial=map_readings_trial, call=_call, extract=_extract,
+    config=FjpdaMapConfirmConfig(), seed=FJPDA_MAP_CONFIRM_SEED, runs=MAP_CONFIRM_RUNS,
+    version="1", notebook="book/004-feature-jpda/12-occlusion-map-readings.ipynb"))
