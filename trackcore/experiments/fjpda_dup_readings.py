@@ -236,26 +236,12 @@ def dup_trial(rng, config):
     True
     """
     from ..scenarios.feature_metrics import scene_metrics
-    from ..scenarios.feature_scenes import render_scene, segment_scene
-    from ..trackers.jpda_tracker import run_jpda_tracker
-    from .fjpda_oat import scene_of_run
-    from .fjpda_readings import READINGS_SCENES
+    from .fjpda_oat import _oat_runs
 
-    i = scene_of_run(rng, len(config.scenes))
-    name, jitter, _ = READINGS_SCENES[config.scenes[i]]
-    scene = render_scene(name, rng, jitter=jitter)
-    variants = config.variants(i)
-    dets = {}
-    for method in ("vibe", "running_average"):
-        if any(m == method for m, _ in variants.values()):
-            dets[method] = segment_scene(scene, method, rng)[0]
-    out, first = {}, {}
-    for v, (method, arms) in variants.items():
-        for t, cfg in arms.items():
-            reports = run_jpda_tracker(dets[method], cfg)
-            out[f"{t} {v}"] = scene_metrics(scene, reports)
-            if cfg.duplicate_deletion:
-                first[f"{t} {v}"] = first_deletion(reports)
+    i, scene, runs = _oat_runs(rng, config)
+    out = {label: scene_metrics(scene, reports) for label, (_, reports) in runs.items()}
+    first = {label: first_deletion(reports) for label, (cfg, reports) in runs.items()
+             if cfg.duplicate_deletion}
     return i, out, follower_entry(scene), first
 
 

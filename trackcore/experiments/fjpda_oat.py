@@ -234,6 +234,16 @@ def oat_trial(rng, config):
     (1, ['FJPDA default', 'FJPDA mem1', 'JPDA default', 'JPDA mem1'])
     """
     from ..scenarios.feature_metrics import scene_metrics
+
+    i, scene, runs = _oat_runs(rng, config)
+    return i, {label: scene_metrics(scene, reports) for label, (_, reports) in runs.items()}
+
+
+def _oat_runs(rng, config):
+    """The tracker runs of one run of :func:`oat_trial`, before any metric: ``(scene
+    index, scene, {"<tracker> <value>": (config, frame reports)})``, with the same draws
+    in the same order (shared by the trials that read more of the runs than
+    :func:`oat_trial` stores)."""
     from ..scenarios.feature_scenes import render_scene, segment_scene
     from ..trackers.jpda_tracker import run_jpda_tracker
 
@@ -245,11 +255,11 @@ def oat_trial(rng, config):
     for method in ("vibe", "running_average"):
         if any(m == method for m, _ in variants.values()):
             dets[method] = segment_scene(scene, method, rng)[0]
-    out = {}
+    runs = {}
     for v, (method, pair) in variants.items():
         for t, cfg in pair.items():
-            out[f"{t} {v}"] = scene_metrics(scene, run_jpda_tracker(dets[method], cfg))
-    return i, out
+            runs[f"{t} {v}"] = (cfg, run_jpda_tracker(dets[method], cfg))
+    return i, scene, runs
 
 
 def _oat_call(config):
